@@ -1,0 +1,109 @@
+#include "autoscan/core/scanner_spec.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <numbers>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/error.hpp"
+
+namespace autoscan {
+
+double ScannerSpec::vertical_fov_deg() const {
+  const double h = std::tan(fov_deg * std::numbers::pi / 360.0) * height / width;
+  return 2.0 * std::atan(h) * 180.0 / std::numbers::pi;
+}
+
+void ScannerSpec::validate(const std::string& what) const {
+  AUTOSCAN_REQUIRE(std::isfinite(near) && std::isfinite(far) && near > 0, "{}: near must be a positive number", what);
+  AUTOSCAN_REQUIRE(near < far, "{}: near ({}) must be smaller than far ({})", what, near, far);
+  AUTOSCAN_REQUIRE(fov_deg > 0 && fov_deg < 180, "{}: fov_deg must be in (0, 180), got {}", what, fov_deg);
+  AUTOSCAN_REQUIRE(width > 0 && height > 0 && width <= 16384 && height <= 16384,
+                   "{}: resolution {}x{} is out of range", what, width, height);
+  AUTOSCAN_REQUIRE(std::isfinite(baseline) && baseline >= 0, "{}: baseline must be >= 0", what);
+  AUTOSCAN_REQUIRE(max_incidence_deg > 0 && max_incidence_deg <= 90, "{}: max_incidence_deg must be in (0, 90]",
+                   what);
+  const auto& n = noise;
+  AUTOSCAN_REQUIRE(n.magnitude >= 0 && n.magnitude <= 1, "{}: noise magnitude must be in [0, 1], got {}", what,
+                   n.magnitude);
+  for (double v : {n.depth_sigma, n.depth_distance_power, n.depth_incidence_gain, n.outlier_fraction, n.outlier_range,
+                   n.pose_translation_sigma, n.pose_rotation_sigma_deg})
+    AUTOSCAN_REQUIRE(std::isfinite(v) && v >= 0, "{}: noise parameters must be finite and >= 0", what);
+  AUTOSCAN_REQUIRE(n.outlier_fraction <= 1, "{}: outlier_fraction must be <= 1", what);
+}
+
+nlohmann::json to_json(const ScannerSpec& s) {
+  const auto& n = s.noise;
+  return {{"near", s.near},
+          {"far", s.far},
+          {"fov_deg", s.fov_deg},
+          {"width", s.width},
+          {"height", s.height},
+          {"baseline", s.baseline},
+          {"max_incidence_deg", s.max_incidence_deg},
+          {"noise",
+           {{"magnitude", n.magnitude},
+            {"depth_sigma", n.depth_sigma},
+            {"depth_distance_power", n.depth_distance_power},
+            {"depth_incidence_gain", n.depth_incidence_gain},
+            {"outlier_fraction", n.outlier_fraction},
+            {"outlier_range", n.outlier_range},
+            {"pose_translation_sigma", n.pose_translation_sigma},
+            {"pose_rotation_sigma_deg", n.pose_rotation_sigma_deg}}}};
+}
+
+namespace {
+template <typename T>
+void read_field(const nlohmann::json& j, const char* key, T& out, const std::string& what) {
+  if (!j.contains(key)) return;
+  const auto& v = j.at(key);
+  AUTOSCAN_REQUIRE(v.is_number(), "{}: '{}' must be a number", what, key);
+  out = v.get<T>();
+}
+}  // namespace
+
+ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: a scanner spec must be a JSON object", what);
+  ScannerSpec s;
+  static const char* known[] = {"near", "far", "fov_deg", "width", "height", "baseline", "max_incidence_deg", "noise"};
+  for (const auto& [k, v] : j.items()) {
+    bool ok = false;
+    for (auto* n : known) ok = ok || k == n;
+    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}'", what, k);
+  }
+  read_field(j, "near", s.near, what);
+  read_field(j, "far", s.far, what);
+  read_field(j, "fov_deg", s.fov_deg, what);
+  read_field(j, "width", s.width, what);
+  read_field(j, "height", s.height, what);
+  read_field(j, "baseline", s.baseline, what);
+  read_field(j, "max_incidence_deg", s.max_incidence_deg, what);
+  if (j.contains("noise")) {
+    const auto& n = j.at("noise");
+    if (n.is_number()) {
+      s.noise.magnitude = n.get<double>();
+    } else {
+      AUTOSCAN_REQUIRE(n.is_object(), "{}: 'noise' must be a number or an object", what);
+      read_field(n, "magnitude", s.noise.magnitude, what);
+      read_field(n, "depth_sigma", s.noise.depth_sigma, what);
+      read_field(n, "depth_distance_power", s.noise.depth_distance_power, what);
+      read_field(n, "depth_incidence_gain", s.noise.depth_incidence_gain, what);
+      read_field(n, "outlier_fraction", s.noise.outlier_fraction, what);
+      read_field(n, "outlier_range", s.noise.outlier_range, what);
+      read_field(n, "pose_translation_sigma", s.noise.pose_translation_sigma, what);
+      read_field(n, "pose_rotation_sigma_deg", s.noise.pose_rotation_sigma_deg, what);
+    }
+  }
+  s.validate(what);
+  return s;
+}
+
+ScannerSpec load_scanner(const std::string& path) {
+  const auto text = read_text_file(path);
+  auto j = nlohmann::json::parse(text, nullptr, false);
+  AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON", path);
+  return scanner_from_json(j, path);
+}
+
+}  // namespace autoscan

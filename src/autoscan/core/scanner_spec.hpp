@@ -1,0 +1,49 @@
+#pragma once
+// The scanner as the planner sees it (a real one or the virtual one): working range, field of view,
+// resolution, projector baseline, largest incidence angle, and the simulator's noise model.
+// Defaults (../shared/PRODUCT.md) follow the paper's authors' setup: working range 20-40 cm for an
+// object about 25 cm across, i.e. near 0.8 and far 1.6 for objects normalised to diagonal 1, and a
+// field of view of about 28 degrees. JSON form: the field names below.
+#include <nlohmann/json_fwd.hpp>
+
+#include <string>
+
+namespace autoscan {
+
+/// Noise of the virtual scanner, in the spirit of Berger et al. 2013. `magnitude` in [0, 1] scales
+/// every part; each part can also be set on its own (its value is the one at magnitude 1).
+struct NoiseSpec {
+  double magnitude = 0.0;              ///< global scale in [0, 1]
+  double depth_sigma = 0.002;          ///< depth noise std-dev along the ray at distance `near`, normal incidence
+  double depth_distance_power = 2.0;   ///< depth noise grows as (distance/near)^power (triangulation error)
+  double depth_incidence_gain = 1.0;   ///< and by (1 + gain*tan(incidence))
+  double outlier_fraction = 0.01;      ///< share of pixels replaced by outliers along the ray
+  double outlier_range = 0.05;         ///< outliers are displaced uniformly within +-range along the ray
+  double pose_translation_sigma = 0.004;  ///< robot pose error: std-dev of the position error
+  double pose_rotation_sigma_deg = 0.4;   ///< robot pose error: std-dev of the rotation error (degrees)
+};
+
+struct ScannerSpec {
+  double near = 0.8;              ///< d_n: nearest working distance
+  double far = 1.6;               ///< d_f: farthest working distance
+  double fov_deg = 28.0;          ///< horizontal field of view of the camera (degrees)
+  int width = 640;                ///< camera resolution (pixels)
+  int height = 480;
+  double baseline = 0.3;          ///< projector offset along the camera's +x axis
+  double max_incidence_deg = 75.0;  ///< largest angle between the ray and the surface normal
+  NoiseSpec noise;
+
+  /// d_o = (d_n + d_f)/2, the optimal working distance (paper §5.1, below Eq. 4).
+  double optimal_distance() const { return 0.5 * (near + far); }
+  double vertical_fov_deg() const;
+  /// Throws InputError (prefixed by `what`) for near >= far, non-positive sizes, fov out of (0,180),
+  /// noise magnitude outside [0, 1], negative noise parts.
+  void validate(const std::string& what = "scanner") const;
+};
+
+nlohmann::json to_json(const ScannerSpec& spec);
+/// Missing fields keep their defaults; unknown fields are an error (typos must not pass silently).
+ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what = "scanner");
+ScannerSpec load_scanner(const std::string& path);
+
+}  // namespace autoscan
