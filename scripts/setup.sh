@@ -32,8 +32,11 @@ PACKAGES=(
   libeigen3-dev libtbb-dev libembree-dev libnanoflann-dev libcgal-dev libgmp-dev libmpfr-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  nodejs npm chromium
+  chromium
 )
+# The report's front end is bundled with npm and tested in headless Chromium (Playwright).
+command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)
+command -v npm >/dev/null 2>&1 || PACKAGES+=(npm)
 if [ "$WITH_OPEN3D" = 1 ]; then PACKAGES+=(libopen3d-dev); fi
 
 missing=()

@@ -19,6 +19,8 @@ void ScannerSpec::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(std::isfinite(near) && std::isfinite(far) && near > 0, "{}: near must be a positive number", what);
   AUTOSCAN_REQUIRE(near < far, "{}: near ({}) must be smaller than far ({})", what, near, far);
   AUTOSCAN_REQUIRE(fov_deg > 0 && fov_deg < 180, "{}: fov_deg must be in (0, 180), got {}", what, fov_deg);
+  AUTOSCAN_REQUIRE(projector_fov_deg > 0 && projector_fov_deg < 180,
+                   "{}: projector_fov_deg must be in (0, 180), got {}", what, projector_fov_deg);
   AUTOSCAN_REQUIRE(width > 0 && height > 0 && width <= 16384 && height <= 16384,
                    "{}: resolution {}x{} is out of range", what, width, height);
   AUTOSCAN_REQUIRE(std::isfinite(baseline) && baseline >= 0, "{}: baseline must be >= 0", what);
@@ -41,6 +43,7 @@ nlohmann::json to_json(const ScannerSpec& s) {
           {"width", s.width},
           {"height", s.height},
           {"baseline", s.baseline},
+          {"projector_fov_deg", s.projector_fov_deg},
           {"max_incidence_deg", s.max_incidence_deg},
           {"noise",
            {{"magnitude", n.magnitude},
@@ -66,7 +69,8 @@ void read_field(const nlohmann::json& j, const char* key, T& out, const std::str
 ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: a scanner spec must be a JSON object", what);
   ScannerSpec s;
-  static const char* known[] = {"near", "far", "fov_deg", "width", "height", "baseline", "max_incidence_deg", "noise"};
+  static const char* known[] = {"near", "far", "fov_deg", "width", "height", "baseline", "projector_fov_deg",
+                                "max_incidence_deg", "noise"};
   for (const auto& [k, v] : j.items()) {
     bool ok = false;
     for (auto* n : known) ok = ok || k == n;
@@ -78,6 +82,7 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
   read_field(j, "width", s.width, what);
   read_field(j, "height", s.height, what);
   read_field(j, "baseline", s.baseline, what);
+  read_field(j, "projector_fov_deg", s.projector_fov_deg, what);
   read_field(j, "max_incidence_deg", s.max_incidence_deg, what);
   if (j.contains("noise")) {
     const auto& n = j.at("noise");

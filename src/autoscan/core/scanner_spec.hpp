@@ -30,13 +30,17 @@ struct ScannerSpec {
   int width = 640;                ///< camera resolution (pixels)
   int height = 480;
   double baseline = 0.3;          ///< projector offset along the camera's +x axis
+  /// Horizontal field of view of the projector (degrees). The projector is toed in to aim at the
+  /// camera's optical axis at d_o; 36 degrees lights the whole camera frustum over [near, far] with
+  /// the default baseline (the projector's vertical field follows the camera's aspect ratio).
+  double projector_fov_deg = 36.0;
   double max_incidence_deg = 75.0;  ///< largest angle between the ray and the surface normal
   NoiseSpec noise;
 
   /// d_o = (d_n + d_f)/2, the optimal working distance (paper §5.1, below Eq. 4).
   double optimal_distance() const { return 0.5 * (near + far); }
   double vertical_fov_deg() const;
-  /// Throws InputError (prefixed by `what`) for near >= far, non-positive sizes, fov out of (0,180),
+  /// Throws InputError (prefixed by `what`) for near >= far, non-positive sizes, fovs out of (0,180),
   /// noise magnitude outside [0, 1], negative noise parts.
   void validate(const std::string& what = "scanner") const;
 };

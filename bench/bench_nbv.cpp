@@ -1,0 +1,165 @@
+// Benchmarks of the next-best-view stage (docs/benchmarks.md, "Next-best views").
+//  * BM_FieldReference / BM_FieldFast: the viewing vector field (Eq. 4) brute force vs fast, side by
+//    side on the same input (a 30^3 grid, 1500 iso-points, a 20k-triangle bumpy sphere).
+//  * BM_FieldFast_100 / BM_Plan_100: the size: 100^3 voxels, 20k iso-points, a 200k-triangle
+//    mesh, the field alone and the whole plan() (field + selection + Eq. 5 + path).
+// Input: a bumpy sphere (concave folds, so visibility matters) with iso-points sampled on it and a
+// confidence map that is high (0.75-1) with three low-confidence patches.
+#include <benchmark/benchmark.h>
+
+#include <sys/resource.h>
+
+#include <cmath>
+
+#include "autoscan/core/random.hpp"
+#include "autoscan/nbv/nbv.hpp"
+
+namespace {
+using namespace autoscan;
+
+double bump_radius(double th, double ph) { return 0.3 * (1.0 + 0.18 * std::sin(5 * th) * std::cos(4 * ph)); }
+
+/// Lat-long bumpy sphere with about `tris` triangles (poles closed with fans).
+TriangleMesh bumpy_mesh(int tris) {
+  const int n = static_cast<int>(std::sqrt(tris / 2.0));
+  TriangleMesh m;
+  m.vertices.push_back(Vec3(0, 0, bump_radius(0, 0)));
+  for (int i = 1; i < n; ++i) {
+    const double th = M_PI * i / n;
+    for (int j = 0; j < n; ++j) {
+      const double ph = 2 * M_PI * j / n;
+      const double r = bump_radius(th, ph);
+      m.vertices.push_back(r * Vec3(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th)));
+    }
+  }
+  m.vertices.push_back(Vec3(0, 0, -bump_radius(M_PI, 0)));
+  const int south = static_cast<int>(m.vertices.size()) - 1;
+  auto id = [n](int i, int j) { return 1 + (i - 1) * n + (j % n); };
+  for (int j = 0; j < n; ++j) m.faces.push_back({0, id(1, j), id(1, j + 1)});
+  for (int i = 1; i < n - 1; ++i)
+    for (int j = 0; j < n; ++j) {
+      m.faces.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      m.faces.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  for (int j = 0; j < n; ++j) m.faces.push_back({south, id(n - 1, j + 1), id(n - 1, j)});
+  return m;
+}
+
+/// `count` iso-points sampled uniformly on the mesh (face normals, outward), with a confidence map.
+PointCloud iso_points(const TriangleMesh& m, int count, std::uint64_t seed) {
+  std::vector<double> cum;
+  double total = 0;
+  const auto fn = m.face_normals();
+  for (const auto& f : m.faces) {
+    total += 0.5 * (m.vertices[std::size_t(f[1])] - m.vertices[std::size_t(f[0])])
+                       .cross(m.vertices[std::size_t(f[2])] - m.vertices[std::size_t(f[0])])
+                       .norm();
+    cum.push_back(total);
+  }
+  Rng rng(seed);
+  PointCloud pc;
+  std::vector<double> conf;
+  const Vec3 patches[3] = {Vec3(0, 0, 1), Vec3(1, 0.2, -0.4).normalized(), Vec3(-0.6, -0.8, 0.1).normalized()};
+  for (int k = 0; k < count; ++k) {
+    const double x = rng.uniform() * total;
+    const auto fi = static_cast<std::size_t>(std::lower_bound(cum.begin(), cum.end(), x) - cum.begin());
+    const auto& f = m.faces[std::min(fi, m.faces.size() - 1)];
+    double a = rng.uniform(), b = rng.uniform();
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const Vec3 p = m.vertices[std::size_t(f[0])] + a * (m.vertices[std::size_t(f[1])] - m.vertices[std::size_t(f[0])]) +
+                   b * (m.vertices[std::size_t(f[2])] - m.vertices[std::size_t(f[0])]);
+    pc.positions.push_back(p);
+    pc.normals.push_back(fn[std::min(fi, m.faces.size() - 1)]);
+    const Vec3 d = p.normalized();
+    double c = 0.75 + 0.25 * (0.5 + 0.5 * std::sin(7 * d.x() + 3 * d.y()) * std::cos(5 * d.z()));
+    for (const auto& pa : patches) {
+      const double ang = std::acos(std::clamp(d.dot(pa), -1.0, 1.0));
+      c *= 1.0 - std::exp(-ang * ang / (2 * 0.25 * 0.25));
+    }
+    conf.push_back(std::clamp(c, 0.0, 1.0));
+  }
+  pc.scalars.set("f", conf);
+  return pc;
+}
+
+/// CPU seconds of the whole process (all threads): robust to other load on a shared machine.
+double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+struct Input {
+  TriangleMesh mesh;
+  PointCloud iso;
+};
+
+const Input& small_input() {
+  static const Input in{bumpy_mesh(20000), iso_points(bumpy_mesh(20000), 1500, 11)};
+  return in;
+}
+const Input& big_input() {
+  static const Input in{bumpy_mesh(200000), iso_points(bumpy_mesh(200000), 20000, 12)};
+  return in;
+}
+
+void run_field(benchmark::State& state, const Input& in, int grid, nbv::FieldMethod method, int cluster = 32,
+               int block = 4) {
+  nbv::NbvOptions o;
+  o.cluster_size = cluster;
+  o.block_size = block;
+  o.grid_resolution = grid;
+  o.method = method;
+  nbv::NbvPlanner planner(in.mesh, ScannerSpec{}, Rig{}, o);
+  nbv::NbvDiagnostics d;
+  const double cpu0 = process_cpu_seconds();
+  for (auto _ : state) {
+    d = {};
+    auto f = planner.compute_field(in.iso, nullptr, &d);
+    benchmark::DoNotOptimize(f.g.data());
+  }
+  state.counters["cpu_s"] = (process_cpu_seconds() - cpu0) / static_cast<double>(state.iterations());
+  state.counters["candidates"] = static_cast<double>(d.candidates);
+  state.counters["rays"] = static_cast<double>(d.rays_cast);
+  state.counters["pairs"] = static_cast<double>(d.pair_evaluations);
+  state.counters["bounds"] = static_cast<double>(d.bound_evaluations);
+  state.counters["s_space"] = d.seconds_space;
+  state.counters["s_field"] = d.seconds_field;
+}
+
+void BM_FieldReference(benchmark::State& s) { run_field(s, small_input(), 30, nbv::FieldMethod::reference); }
+void BM_FieldFast(benchmark::State& s) { run_field(s, small_input(), 30, nbv::FieldMethod::fast); }
+void BM_FieldFast_100(benchmark::State& s) {
+  run_field(s, big_input(), 100, nbv::FieldMethod::fast, static_cast<int>(s.range(0)), static_cast<int>(s.range(1)));
+}
+
+void BM_Plan_100(benchmark::State& state) {
+  const Input& in = big_input();
+  nbv::NbvPlanner planner(in.mesh, ScannerSpec{}, Rig{}, nbv::NbvOptions{});
+  const Pose from = Pose::look_at(Vec3(2, 0, 0.5), Vec3::Zero());
+  nbv::PlanResult r;
+  const double cpu0 = process_cpu_seconds();
+  for (auto _ : state) {
+    r = planner.plan(in.iso, from);
+    benchmark::DoNotOptimize(r.views.data());
+  }
+  state.counters["cpu_s"] = (process_cpu_seconds() - cpu0) / static_cast<double>(state.iterations());
+  const auto& d = r.diagnostics;
+  state.counters["views"] = static_cast<double>(r.views.size());
+  state.counters["candidates"] = static_cast<double>(d.candidates);
+  state.counters["rays"] = static_cast<double>(d.rays_cast);
+  state.counters["s_space"] = d.seconds_space;
+  state.counters["s_field"] = d.seconds_field;
+  state.counters["s_select"] = d.seconds_select;
+  state.counters["s_path"] = d.seconds_path;
+}
+
+BENCHMARK(BM_FieldReference)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_FieldFast)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FieldFast_100)->Unit(benchmark::kMillisecond)->Iterations(3)->Args({32, 4});
+BENCHMARK(BM_FieldFast_100)->Unit(benchmark::kMillisecond)->Iterations(1)->Args({16, 4})->Args({8, 4})->Args({16, 2})->Args({16, 8});
+BENCHMARK(BM_Plan_100)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,31 @@
+#pragma once
+// Internal: the narrow interface to CGAL (only cgal_backend.cpp includes CGAL headers; each CGAL
+// translation unit costs ~40 s and ~2 GB to compile). Plain Eigen types in, plain types out.
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "autoscan/core/types.hpp"
+
+namespace autoscan::consolidate::detail {
+
+/// WLOP [Huang et al. 2009] through CGAL::wlop_simplify_and_regularize_point_set. `points` is taken
+/// by value because CGAL reorders it (a deterministic shuffle). Returns select_percentage % of the
+/// input count as new points (non-finite ones dropped). `parallel` picks CGAL::Parallel_if_available_tag,
+/// which is CGAL::Parallel_tag when CGAL_LINKED_WITH_TBB. `callback(fraction)` returns false to stop,
+/// in which case the result is empty. Each sample is updated from the previous iteration's state only,
+/// so the parallel result does not depend on scheduling.
+std::vector<Vec3> cgal_wlop(std::vector<Vec3> points, double select_percentage, double radius, int iterations,
+                            bool uniform_sampling, bool parallel, const std::function<bool(double)>& callback);
+
+/// True when this build runs CGAL's parallel algorithms on TBB.
+bool cgal_parallel_available();
+
+/// Orients `normals` (one per point, unit, unoriented) consistently by propagation along a minimum
+/// spanning tree of the k-NN Riemannian graph [Hoppe et al. 1992] with CGAL::mst_orient_normals; the
+/// highest point's normal is taken to point up. Normals of points the propagation did not reach are
+/// left as they were and flagged in `oriented` (false). Returns the number of such points.
+std::size_t cgal_mst_orient(const std::vector<Vec3>& points, std::vector<Vec3>& normals, unsigned k,
+                            std::vector<char>& oriented);
+
+}  // namespace autoscan::consolidate::detail

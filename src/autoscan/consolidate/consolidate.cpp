@@ -1,0 +1,68 @@
+// The §4.1 pipeline: outliers → radius filter → thinning → WLOP → normals, with timings per step.
+#include "autoscan/consolidate/consolidate.hpp"
+
+#include <algorithm>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/timer.hpp"
+
+namespace autoscan::consolidate {
+
+const char* to_string(WlopMode mode) {
+  switch (mode) {
+    case WlopMode::automatic:
+      return "auto";
+    case WlopMode::on:
+      return "on";
+    case WlopMode::off:
+      return "off";
+  }
+  return "?";
+}
+
+const char* to_string(Orientation orientation) {
+  switch (orientation) {
+    case Orientation::automatic:
+      return "auto";
+    case Orientation::sensor:
+      return "sensor";
+    case Orientation::mst:
+      return "mst";
+  }
+  return "?";
+}
+
+ConsolidateResult consolidate(const PointCloud& raw, const ConsolidateOptions& o, ProgressCallback progress) {
+  const Stopwatch total;
+  const bool run_wlop = wlop_enabled(o.wlop);
+  // Validate the input once, up front, against the largest neighbourhood the enabled steps need.
+  int k = 0;
+  if (o.outliers.enabled) k = std::max(k, o.outliers.k);
+  if (run_wlop) k = std::max(k, o.wlop.spacing_k);
+  if (o.normals.enabled) k = std::max(k, o.normals.k - 1);
+  validate_cloud(raw, std::max(k, 0), "consolidate");
+
+  ConsolidateResult r;
+  r.points_in = raw.size();
+  r.cloud = raw;
+  auto timed = [&](const char* name, auto&& step) {
+    const Stopwatch sw;
+    step();
+    r.timings.push_back({name, sw.seconds()});
+    log::debug("consolidate: {} took {:.3f} s, {} points", name, r.timings.back().seconds, r.cloud.size());
+  };
+  if (o.outliers.enabled)
+    timed("outliers", [&] { r.outliers = remove_statistical_outliers(r.cloud, o.outliers, progress); });
+  if (o.radius_filter.radius > 0.0)
+    timed("radius_filter", [&] { r.radius_removed = remove_sparse_points(r.cloud, o.radius_filter, progress); });
+  if (o.thinning.voxel_size > 0.0 || o.thinning.max_points > 0)
+    timed("thinning", [&] { r.thinning = voxel_thin(r.cloud, o.thinning); });
+  if (run_wlop) timed("wlop", [&] { r.wlop = apply_wlop(r.cloud, o.wlop, progress); });
+  if (o.normals.enabled) timed("normals", [&] { r.normals = estimate_normals(r.cloud, o.normals, progress); });
+  r.points_out = r.cloud.size();
+  r.total_seconds = total.seconds();
+  return r;
+}
+
+}  // namespace autoscan::consolidate

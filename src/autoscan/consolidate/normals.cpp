@@ -1,0 +1,160 @@
+// PCA normals over k neighbours, oriented toward the recorded scanner positions or by MST propagation.
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "autoscan/consolidate/cgal_backend.hpp"
+#include "autoscan/consolidate/consolidate.hpp"
+#include "autoscan/consolidate/knn.hpp"
+#include "autoscan/core/error.hpp"
+
+namespace autoscan::consolidate {
+namespace {
+
+bool has_sensors(const PointCloud& c) {
+  return c.scalars.has("sensor_x") && c.scalars.has("sensor_y") && c.scalars.has("sensor_z");
+}
+
+/// Unit normal of the least-squares plane through `pts[idx[0..m)]` (the eigenvector of the smallest
+/// eigenvalue of their covariance, closed-form 3×3 solver on the trace-normalised covariance); UnitZ
+/// when degenerate. Unoriented.
+template <typename Index>
+Vec3 plane_normal(const std::vector<Vec3>& pts, const Index* idx, std::size_t m,
+                  Eigen::SelfAdjointEigenSolver<Mat3>& eig) {
+  Vec3 mean = Vec3::Zero();
+  for (std::size_t j = 0; j < m; ++j) mean += pts[idx[j]];
+  mean /= static_cast<double>(m);
+  Mat3 cov = Mat3::Zero();
+  for (std::size_t j = 0; j < m; ++j) {
+    const Vec3 q = pts[idx[j]] - mean;
+    cov.noalias() += q * q.transpose();
+  }
+  const double tr = cov.trace();
+  if (!(tr > 0.0) || !std::isfinite(tr)) return Vec3::UnitZ();
+  eig.computeDirect(cov / tr);  // eigenvalues ascending
+  const Vec3 n = eig.eigenvectors().col(0);
+  const double len = n.norm();
+  return (len > 0.0 && std::isfinite(len)) ? Vec3(n / len) : Vec3::UnitZ();
+}
+
+/// PCA normals over the k nearest points (the point included), unoriented. Returns the neighbour
+/// lists, k per point.
+std::vector<std::uint32_t> pca_normals(PointCloud& cloud, const KnnIndex& index, std::size_t k, Progress& prog) {
+  AUTOSCAN_REQUIRE(cloud.size() < (std::size_t{1} << 32), "normals: {} points is more than supported", cloud.size());
+  cloud.normals.assign(cloud.size(), Vec3::UnitZ());
+  std::vector<std::uint32_t> nbr(cloud.size() * k);
+  parallel_blocks(cloud.size(), &prog, [&](std::size_t b, std::size_t e) {
+    std::vector<std::size_t> idx(k);
+    std::vector<double> d2(k);
+    Eigen::SelfAdjointEigenSolver<Mat3> eig;
+    for (std::size_t i = b; i < e; ++i) {
+      const std::size_t m = index.knn(cloud.positions[i], k, idx.data(), d2.data());  // m == k: size() >= k
+      for (std::size_t j = 0; j < k; ++j) nbr[i * k + j] = static_cast<std::uint32_t>(idx[std::min(j, m - 1)]);
+      cloud.normals[i] = plane_normal(cloud.positions, idx.data(), m, eig);
+    }
+  });
+  return nbr;
+}
+
+/// Second PCA pass over the k nearest points whose oriented normal agrees with the point's
+/// (n_i · n_j > 0), among its 2k nearest. Two sheets of a thin part closer than the sampling step
+/// share k-NN neighbourhoods, which tilts the first fit; once oriented, their normals are opposite and
+/// this pass fits each sheet alone. Points whose k neighbours all agree keep the first fit (it is the
+/// same fit). Keeps each normal's orientation.
+void refine_by_sheet(PointCloud& cloud, const KnnIndex& index, std::size_t k, const std::vector<std::uint32_t>& nbr) {
+  const std::vector<Vec3> first = cloud.normals;
+  const std::size_t m2 = std::min(2 * k, cloud.size());
+  parallel_blocks(cloud.size(), nullptr, [&](std::size_t b, std::size_t e) {
+    std::vector<std::size_t> idx(m2), same(m2);
+    std::vector<double> d2(m2);
+    Eigen::SelfAdjointEigenSolver<Mat3> eig;
+    for (std::size_t i = b; i < e; ++i) {
+      bool mixed = false;
+      for (std::size_t j = 0; j < k && !mixed; ++j) mixed = first[nbr[i * k + j]].dot(first[i]) <= 0.0;
+      if (!mixed) continue;
+      const std::size_t m = index.knn(cloud.positions[i], m2, idx.data(), d2.data());
+      std::size_t c = 0;
+      for (std::size_t j = 0; j < m && c < k; ++j)
+        if (first[idx[j]].dot(first[i]) > 0.0) same[c++] = idx[j];
+      if (c < 3) continue;
+      const Vec3 n = plane_normal(cloud.positions, same.data(), c, eig);
+      cloud.normals[i] = n.dot(first[i]) < 0.0 ? Vec3(-n) : n;
+    }
+  });
+}
+
+}  // namespace
+
+std::size_t orient_toward_sensors(PointCloud& cloud) {
+  AUTOSCAN_REQUIRE(has_sensors(cloud),
+                   "normals: orientation toward the sensor needs the scalars sensor_x, sensor_y, sensor_z");
+  AUTOSCAN_REQUIRE(cloud.has_normals(), "normals: the cloud has no normals to orient");
+  const auto& sx = cloud.scalars.get("sensor_x");
+  const auto& sy = cloud.scalars.get("sensor_y");
+  const auto& sz = cloud.scalars.get("sensor_z");
+  std::size_t ambiguous = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Vec3 s(sx[i], sy[i], sz[i]);
+    AUTOSCAN_REQUIRE(s.allFinite(), "normals: sensor position of point {} is not finite", i);
+    const double dot = cloud.normals[i].dot(s - cloud.positions[i]);
+    if (dot < 0.0)
+      cloud.normals[i] = -cloud.normals[i];
+    else if (dot == 0.0)
+      ++ambiguous;
+  }
+  return ambiguous;
+}
+
+NormalReport orient_by_mst(PointCloud& cloud, int k) {
+  AUTOSCAN_REQUIRE(k >= 2, "normals: mst_k must be at least 2 (got {})", k);
+  validate_cloud(cloud, k, "normals");
+  AUTOSCAN_REQUIRE(cloud.has_normals(), "normals: the cloud has no normals to orient");
+  NormalReport r;
+  r.orientation = Orientation::mst;
+  std::vector<char> reached;
+  r.unreached = detail::cgal_mst_orient(cloud.positions, cloud.normals, static_cast<unsigned>(k), reached);
+  Vec3 c = Vec3::Zero();
+  for (const auto& p : cloud.positions) c += p;
+  c /= static_cast<double>(cloud.size());
+  std::size_t outward = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const double dot = cloud.normals[i].dot(cloud.positions[i] - c);
+    if (!reached[i] && dot < 0.0) cloud.normals[i] = -cloud.normals[i];  // isolated: away from the centroid
+    if (cloud.normals[i].dot(cloud.positions[i] - c) > 0.0) ++outward;
+  }
+  if (2 * outward < cloud.size()) {
+    r.flipped_all = true;
+    for (auto& n : cloud.normals) n = -n;
+  }
+  return r;
+}
+
+NormalReport estimate_normals(PointCloud& cloud, const NormalOptions& o, ProgressCallback progress) {
+  AUTOSCAN_REQUIRE(o.k >= 3, "normals: k must be at least 3 (got {})", o.k);
+  validate_cloud(cloud, o.k - 1, "normals");
+  Orientation how = o.orientation;
+  if (how == Orientation::automatic) how = has_sensors(cloud) ? Orientation::sensor : Orientation::mst;
+  if (how == Orientation::sensor)
+    AUTOSCAN_REQUIRE(has_sensors(cloud),
+                     "normals: orientation 'sensor' needs the scalars sensor_x, sensor_y, sensor_z in the cloud");
+  Progress prog(std::move(progress), "normals");
+  const KnnIndex index(cloud.positions);
+  const auto k = static_cast<std::size_t>(o.k);
+  const auto nbr = pca_normals(cloud, index, k, prog);
+  NormalReport r;
+  if (how == Orientation::sensor) {
+    r.orientation = Orientation::sensor;
+    r.ambiguous = orient_toward_sensors(cloud);
+  } else {
+    r = orient_by_mst(cloud, o.mst_k);
+  }
+  if (o.sheet_refinement) {
+    refine_by_sheet(cloud, index, k, nbr);
+    if (how == Orientation::sensor) r.ambiguous = orient_toward_sensors(cloud);  // exact by construction
+  }
+  prog.report(1.0);
+  return r;
+}
+
+}  // namespace autoscan::consolidate

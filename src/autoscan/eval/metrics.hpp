@@ -1,0 +1,104 @@
+#pragma once
+// Ground-truth metrics (../shared/PRODUCT.md, "Metrics"; the paper's Figure 9 error histogram).
+//
+// Both surfaces are sampled uniformly (area-weighted) with a fixed seed; distances are exact
+// point-to-triangle distances (MeshDistance), not point-to-point approximations.
+//  * accuracy     — reconstruction samples → truth surface (mean, RMS, p50, p90, p99, max);
+//  * completeness — truth samples → reconstruction surface;
+//  * precision / recall — share of reconstruction (truth) samples within τ of the other surface;
+//    F-score = 2PR / (P + R);
+//  * coverage     — share of truth samples within τ of any scanned point (kd-tree, nanoflann);
+//  * histogram    — share of reconstruction samples per distance bin (Figure 9).
+// τ and the histogram range are given in units of the truth's bounding-box diagonal; distances in
+// results are absolute (the same numbers for truth meshes normalised to diagonal 1).
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/point_cloud.hpp"
+
+namespace autoscan::eval {
+
+struct EvalOptions {
+  double tau = 0.005;            ///< F-score / coverage threshold, fraction of the truth's diagonal
+  std::size_t samples = 200000;  ///< surface samples drawn on each mesh
+  std::uint64_t seed = 1;        ///< sampling seed (truth and reconstruction use streams of it)
+  int histogram_bins = 20;       ///< Figure 9: number of distance bins
+  double histogram_max = 0.02;   ///< Figure 9: upper edge of the last bin, fraction of the diagonal
+                                 ///< (farther samples are counted in `overflow`)
+};
+
+/// Summary of a set of distances (absolute units).
+struct DistanceStats {
+  std::size_t count = 0;
+  double mean = 0, rms = 0, median = 0, p90 = 0, p99 = 0, max = 0;
+  nlohmann::json to_json() const;
+};
+/// Linear-interpolated percentiles etc. of `d` (any order); all zero when empty.
+DistanceStats distance_stats(std::vector<double> d);
+
+/// Error histogram (Figure 9): share of samples whose distance falls in [edges[i], edges[i+1]).
+struct ErrorHistogram {
+  std::vector<double> edges;  ///< bins + 1 absolute bin edges, edges[0] = 0
+  std::vector<double> share;  ///< per bin, share of all samples (sums to 1 - overflow)
+  std::vector<std::size_t> counts;
+  double overflow = 0;  ///< share of samples at or beyond edges.back()
+  std::size_t overflow_count = 0;
+  double diagonal = 1;  ///< the truth diagonal the edges were scaled by
+  nlohmann::json to_json() const;
+};
+ErrorHistogram make_histogram(const std::vector<double>& distances, int bins, double max_distance, double diagonal);
+
+struct EvalResult {
+  DistanceStats accuracy;      ///< reconstruction → truth
+  DistanceStats completeness;  ///< truth → reconstruction
+  double precision = 0, recall = 0, fscore = 0;
+  double tau = 0;      ///< as given (fraction of the diagonal)
+  double tau_abs = 0;  ///< tau × truth diagonal
+  double truth_diagonal = 0;
+  ErrorHistogram histogram;  ///< of the accuracy distances
+  std::size_t recon_faces = 0, truth_faces = 0;
+  double seconds = 0;  ///< wall time
+  nlohmann::json to_json() const;
+};
+
+/// Compares a reconstructed mesh with the ground truth. The reconstruction need not be closed.
+/// Throws InputError for empty or zero-area meshes, tau <= 0, samples == 0, bins < 1 or
+/// histogram_max <= 0.
+EvalResult evaluate_mesh(const TriangleMesh& recon, const TriangleMesh& truth, const EvalOptions& options = {});
+
+/// Accuracy of a point cloud (e.g. the scanned points) against the truth.
+struct CloudEvalResult {
+  DistanceStats accuracy;  ///< every point → truth surface
+  double precision = 0;    ///< share of points within tau_abs of the truth
+  double coverage = 0;     ///< share of truth samples within tau_abs of some point (= recall)
+  double fscore = 0;
+  double tau = 0, tau_abs = 0, truth_diagonal = 0;
+  ErrorHistogram histogram;
+  std::size_t points = 0;
+  double seconds = 0;
+  nlohmann::json to_json() const;
+};
+CloudEvalResult evaluate_cloud(const PointCloud& cloud, const TriangleMesh& truth, const EvalOptions& options = {});
+
+/// Share of `samples` uniform truth samples (seeded) within tau × diagonal(truth) of any point of
+/// `scanned`. 0 for an empty cloud.
+double coverage(const PointCloud& scanned, const TriangleMesh& truth, double tau = 0.005, std::size_t samples = 200000,
+                std::uint64_t seed = 1);
+
+/// Writes the histogram as CSV: `bin_lo,bin_hi,share,count` then an `overflow` row. Atomic.
+void write_histogram_csv(const std::filesystem::path& path, const ErrorHistogram& h);
+/// Writes a bar chart (SVG) of one or more histograms with the same edges, side by side per bin
+/// (Figure 9 compares planners this way). Atomic. Throws InputError when the edges differ.
+void write_histogram_svg(const std::filesystem::path& path,
+                         const std::vector<std::pair<std::string, ErrorHistogram>>& series,
+                         const std::string& title = "Error distribution");
+void write_histogram_svg(const std::filesystem::path& path, const ErrorHistogram& h,
+                         const std::string& title = "Error distribution");
+
+}  // namespace autoscan::eval

@@ -1,0 +1,153 @@
+#include "autoscan/io/mesh_io.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/io/detail_parse.hpp"
+
+namespace autoscan::io {
+namespace fs = std::filesystem;
+
+namespace detail {
+
+std::string load_file(const fs::path& path) {
+  const std::string p = path.string();
+  std::error_code ec;
+  const auto st = fs::status(path, ec);
+  if (!fs::exists(st)) fail(p, "no such file");
+  if (fs::is_directory(st)) fail(p, "is a directory, not a file");
+  if (!fs::is_regular_file(st)) fail(p, "is not a regular file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(p, "cannot be opened for reading (permission denied?)");
+  in.seekg(0, std::ios::end);
+  const auto size = in.tellg();
+  if (size < 0) fail(p, "cannot be read");
+  if (size == 0) fail(p, "is empty");
+  in.seekg(0, std::ios::beg);
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  in.read(bytes.data(), size);
+  if (in.gcount() != size) fail(p, "could not be read completely");
+  return bytes;
+}
+
+void require_text(const std::string& path, std::string_view bytes, std::string_view format) {
+  const auto nul = bytes.find('\0');
+  if (nul != std::string_view::npos)
+    fail(path, "contains binary data (a NUL byte at offset {}); not a text {} file", nul, format);
+}
+
+}  // namespace detail
+
+FileFormat format_from_extension(const fs::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".ply") return FileFormat::ply;
+  if (ext == ".obj") return FileFormat::obj;
+  if (ext == ".off") return FileFormat::off;
+  if (ext == ".stl") return FileFormat::stl;
+  detail::fail(path.string(), "unknown file format '{}' (expected .ply, .obj, .off or .stl)",
+               ext.empty() ? std::string("no extension") : ext);
+}
+
+GeometryFile read_geometry(const fs::path& path) {
+  const std::string p = path.string();
+  const FileFormat fmt = format_from_extension(path);
+  const std::string bytes = detail::load_file(path);
+  GeometryFile g;
+  switch (fmt) {
+    case FileFormat::ply:
+      g = detail::read_ply(p, bytes);
+      break;
+    case FileFormat::obj:
+      g = detail::read_obj(p, bytes);
+      break;
+    case FileFormat::off:
+      g = detail::read_off(p, bytes);
+      break;
+    case FileFormat::stl:
+      g = detail::read_stl(p, bytes);
+      break;
+  }
+  // Readers check as they go; this is the final guarantee of the contract.
+  g.vertices.validate(p);
+  const auto n = static_cast<long long>(g.vertices.size());
+  for (std::size_t f = 0; f < g.faces.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+      AUTOSCAN_REQUIRE(g.faces[f][k] >= 0 && g.faces[f][k] < n, "{}: face {} references vertex {} ({} vertices)", p, f,
+                       g.faces[f][k], n);
+  return g;
+}
+
+TriangleMesh read_mesh(const fs::path& path) {
+  GeometryFile g = read_geometry(path);
+  AUTOSCAN_REQUIRE(!g.faces.empty(), "{}: has no faces ({} vertices): not a mesh (read it as a point cloud)",
+                   path.string(), g.vertices.size());
+  TriangleMesh m;
+  m.vertices = std::move(g.vertices.positions);
+  m.vertex_normals = std::move(g.vertices.normals);
+  m.vertex_colors = std::move(g.vertices.colors);
+  m.vertex_scalars = std::move(g.vertices.scalars);
+  m.faces = std::move(g.faces);
+  return m;
+}
+
+PointCloud read_point_cloud(const fs::path& path) { return std::move(read_geometry(path).vertices); }
+
+namespace {
+
+void check_scalar_names(const std::string& p, const ScalarAttributes& s) {
+  static const char* reserved[] = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue"};
+  for (const auto& [name, col] : s.columns()) {
+    AUTOSCAN_REQUIRE(!name.empty(), "{}: a scalar attribute has an empty name", p);
+    for (char c : name)
+      AUTOSCAN_REQUIRE(std::isgraph(static_cast<unsigned char>(c)),
+                       "{}: scalar attribute '{}' has a name PLY cannot hold (whitespace or control characters)", p,
+                       name);
+    for (const char* r : reserved)
+      AUTOSCAN_REQUIRE(name != r, "{}: scalar attribute '{}' clashes with a standard PLY vertex property", p, name);
+  }
+}
+
+}  // namespace
+
+void write_mesh(const fs::path& path, const TriangleMesh& mesh, const WriteOptions& options) {
+  const std::string p = path.string();
+  const FileFormat fmt = format_from_extension(path);
+  mesh.validate(p);
+  for (std::size_t i = 0; i < mesh.vertex_normals.size(); ++i)
+    AUTOSCAN_REQUIRE(mesh.vertex_normals[i].allFinite(), "{}: vertex normal {} is not finite", p, i);
+  switch (fmt) {
+    case FileFormat::ply: {
+      check_scalar_names(p, mesh.vertex_scalars);
+      write_file_atomic(path, [&](std::ostream& os) {
+        detail::write_ply(os, {mesh.vertices, mesh.vertex_normals, mesh.vertex_colors, mesh.vertex_scalars}, mesh.faces,
+                          options);
+      });
+      break;
+    }
+    case FileFormat::obj:
+      write_file_atomic(path, [&](std::ostream& os) { detail::write_obj(os, mesh); });
+      break;
+    case FileFormat::off:
+      write_file_atomic(path, [&](std::ostream& os) { detail::write_off(os, mesh); });
+      break;
+    case FileFormat::stl:
+      write_file_atomic(path, [&](std::ostream& os) { detail::write_stl(os, mesh, options.ascii); });
+      break;
+  }
+}
+
+void write_point_cloud(const fs::path& path, const PointCloud& cloud, const WriteOptions& options) {
+  const std::string p = path.string();
+  AUTOSCAN_REQUIRE(format_from_extension(path) == FileFormat::ply,
+                   "{}: point clouds are written as PLY; use the .ply extension", p);
+  cloud.validate(p);
+  check_scalar_names(p, cloud.scalars);
+  write_file_atomic(path, [&](std::ostream& os) {
+    detail::write_ply(os, {cloud.positions, cloud.normals, cloud.colors, cloud.scalars}, {}, options);
+  });
+}
+
+}  // namespace autoscan::io

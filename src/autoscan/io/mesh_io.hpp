@@ -1,0 +1,70 @@
+#pragma once
+// Reading and writing meshes and point clouds: PLY (ASCII, binary little and big endian), OBJ, OFF
+// and STL (ASCII and binary).
+//
+// Contract for every reader: the format is chosen by the file's extension (case-insensitive) and
+// checked against the file's magic. Any problem — missing path, directory, unreadable or empty file,
+// unknown format, bad magic, truncated data, wrong element counts, out-of-range indices, NaN/Inf
+// coordinates or normals, counts larger than the file could hold, binary garbage — throws
+// InputError whose message starts with the path and says what is wrong (with the line number for
+// ASCII formats). Readers never allocate more than the file size justifies.
+//
+// Contract for every writer: the file is written through write_file_atomic (temporary file, then
+// rename): on any error nothing is left at `path`. Bad arguments (unknown extension, attribute
+// sizes that do not match, names PLY cannot hold) throw InputError before anything is written.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/point_cloud.hpp"
+
+namespace autoscan::io {
+
+enum class FileFormat { ply, obj, off, stl };
+
+/// The format named by `path`'s extension (.ply .obj .off .stl, any case); throws InputError
+/// naming the path for any other extension.
+FileFormat format_from_extension(const std::filesystem::path& path);
+
+/// Everything a geometry file holds: its vertices with their attributes (positions, optional
+/// normals and colours, named scalars — one entry per vertex) and its faces, fan-triangulated
+/// (possibly none, for a point cloud). Indices are validated against the vertex count.
+struct GeometryFile {
+  PointCloud vertices;
+  std::vector<Tri> faces;
+  std::string format;           ///< e.g. "ply binary_little_endian", "off", "stl ascii"
+  std::size_t polygons = 0;     ///< faces in the file before triangulation
+  std::size_t stl_corners = 0;  ///< STL only: corner count before exact welding
+};
+
+/// Reads any supported file. Faces may be empty.
+GeometryFile read_geometry(const std::filesystem::path& path);
+
+/// Reads a triangle mesh (polygons fan-triangulated; STL vertices welded when bit-identical).
+/// PLY vertex normals, colours (red green blue) and other scalar vertex properties are kept.
+/// Throws InputError when the file has no faces.
+TriangleMesh read_mesh(const std::filesystem::path& path);
+
+/// Reads a point cloud: a PLY's vertex element (x y z, optional nx ny nz, red green blue, any
+/// other scalar property as a named scalar), or the vertices of a mesh file of any format.
+PointCloud read_point_cloud(const std::filesystem::path& path);
+
+/// How files are written.
+struct WriteOptions {
+  bool ascii = false;               ///< PLY and STL: text instead of binary (OBJ and OFF are always text)
+  bool big_endian = false;          ///< binary PLY: big instead of little endian
+  bool double_coordinates = false;  ///< PLY: positions and normals as double instead of float
+  bool double_scalars = false;      ///< PLY: named scalars as double instead of float
+};
+
+/// Writes a mesh, format by extension: .ply (vertex normals, colours and named scalars kept),
+/// .obj (normals and colours kept), .off (normals and colours: NOFF/COFF/CNOFF), .stl (geometry
+/// only, face normals computed). Throws InputError for an unknown extension or an invalid mesh.
+void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh, const WriteOptions& options = {});
+
+/// Writes a point cloud as PLY (.ply only) with normals, colours and every named scalar as a
+/// vertex property (MeshLab and CloudCompare show them).
+void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud, const WriteOptions& options = {});
+
+}  // namespace autoscan::io

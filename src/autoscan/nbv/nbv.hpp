@@ -1,0 +1,218 @@
+#pragma once
+// Next-best views (paper §5.1-5.2, Figure 6): the viewing vector field (Eq. 4) over a voxel grid of
+// the search space B, field-guided view selection (per-cell maxima, greedy non-adjacent choice), view
+// directions (Eq. 5) and the ordering of the views into a scan path for the robot.
+//
+// Inputs (data contract):
+//  * iso-points S = {(s_k, n_k)}: a PointCloud with OUTWARD unit normals and a scalar column "f", the
+//    confidence of Eq. 3 in [0, 1] (the confidence stage's output);
+//  * the current Poisson mesh (watertight, CCW seen from outside), used for the visibility term w_v
+//    (Embree 3 ray casts) and, unless an ImplicitField is given, for the inside/outside test;
+//  * optionally the Poisson field (core/implicit.hpp, larger inside) for the inside/outside test;
+//  * the scanner (ScannerSpec: d_n = near, d_f = far, d_o = optimal_distance(), field of view);
+//  * the robot rig (reachability, travel cost) and the scanner's current pose.
+//
+// Typical use (the planner keeps the Embree scene of the mesh between calls, STYLE.md §6):
+//   nbv::NbvPlanner planner(mesh, scanner, rig);
+//   nbv::PlanResult r = planner.plan(iso_points, current_pose);
+//   nbv::write_views_json("views.json", r);
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "autoscan/core/implicit.hpp"
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/pose.hpp"
+#include "autoscan/core/progress.hpp"
+#include "autoscan/core/rig.hpp"
+#include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/core/types.hpp"
+
+namespace autoscan::nbv {
+
+/// How the viewing vector field is computed. Both give the same g on every voxel to within
+/// NbvOptions::tolerance (tests/nbv checks it); `reference` is the literal brute force of Eq. 4.
+enum class FieldMethod {
+  fast,       ///< cluster/block bounds, iso-points by decreasing weight, rays only for possible maxima
+  reference,  ///< every candidate voxel x every iso-point, one visibility ray per pair
+};
+
+struct NbvOptions {
+  int grid_resolution = 100;           ///< §5.1: voxels per axis of the search box B (paper: 100^3)
+  double sigma_deg = 25.0;             ///< Eq. 4: sigma, the angular width of the orientation term w_o
+  double distance_width_factor = 0.25;  ///< Eq. 4: the width of w_d is this times d_n (paper: d_n/4)
+  double upsilon_radius_factor = 0.1;  ///< Eq. 5: Upsilon_k = iso-points within this times d_f of s_k (10 %)
+  int cells = 10;                      ///< §5.2: the field is partitioned into cells^3 cells
+  double min_score = 0.05;             ///< §5.2: per-cell maxima with g below this are dropped (paper: "a given
+                                       ///< threshold", no value given; g is in [0, 1])
+  int max_views = 10;                  ///< §5.2 / Table 1: most views per iteration (paper: usually 5-15)
+  double visibility_offset = 2e-3;     ///< w_v: a visibility ray ends this far off the surface along the
+                                       ///< outward normal, relative to the iso-points' bounding-box diagonal
+  double tolerance = 1e-7;             ///< fast path: pairs with w*(1-f) <= tolerance may be ignored, so g is
+                                       ///< exact to within this (must be < 1e-6)
+  FieldMethod method = FieldMethod::fast;  ///< see FieldMethod
+  int block_size = 4;                  ///< fast path: voxels per side of a block sharing one cluster list
+  int cluster_size = 32;               ///< fast path: most iso-points per bounding cluster
+  bool optimize_path = true;           ///< order views by nearest neighbour, then exact (<= 10 views) or 2-opt
+
+  /// Throws InputError naming the option for values out of range.
+  void validate() const;
+};
+
+/// The voxel grid over the search box B: an oriented box (Z vertical, X-Y along the horizontal
+/// principal axes) split into dims voxels. Voxel (i, j, k) has linear index i + nx*(j + ny*k).
+struct GridGeometry {
+  Vec3 origin = Vec3::Zero();     ///< world position of the box corner (lower corner of voxel (0,0,0))
+  Mat3 axes = Mat3::Identity();   ///< columns: the box's X, Y, Z axes in world coordinates (Z = +Z world)
+  std::array<int, 3> dims{0, 0, 0};  ///< voxels per axis
+  Vec3 spacing = Vec3::Zero();    ///< voxel size along each axis
+
+  std::size_t size() const { return std::size_t(dims[0]) * dims[1] * dims[2]; }
+  std::size_t index(int i, int j, int k) const { return std::size_t(i) + std::size_t(dims[0]) * (j + std::size_t(dims[1]) * k); }
+  std::array<int, 3> ijk(std::size_t idx) const;
+  /// World position of a voxel centre.
+  Vec3 center(int i, int j, int k) const;
+  Vec3 center(std::size_t idx) const;
+  /// Box coordinates (along axes, from origin) of a world point.
+  Vec3 to_local(const Vec3& world) const { return axes.transpose() * (world - origin); }
+};
+
+/// Why a voxel is or is not a candidate view position (§5.1: empty voxels at least d_n and at most
+/// d_f from the surface).
+enum class VoxelState : std::uint8_t { candidate = 0, inside = 1, too_close = 2, too_far = 3 };
+
+/// The viewing vector field (VVF) of §5.1.
+struct ViewingField {
+  GridGeometry grid;
+  std::vector<double> g;          ///< Eq. 4, per voxel; 0 for non-candidates
+  std::vector<Vec3f> direction;   ///< unit vector from the voxel toward the maximising iso-point s_k (the
+                                  ///< suggested scan direction, i.e. -d(v, s_k)); zero where g = 0
+  std::vector<int> argmax;        ///< index of the maximising iso-point s_k, -1 where g = 0
+  std::vector<VoxelState> state;  ///< per voxel
+};
+
+struct NbvView {
+  Pose pose;               ///< position v_i, direction toward the target, up = +Z made orthogonal
+  double score = 0.0;      ///< g(v_i), Eq. 4
+  Vec3 target = Vec3::Zero();  ///< s_k', Eq. 5
+  std::size_t voxel = 0;   ///< linear voxel index of v_i
+  int cell = 0;            ///< linear cell index (§5.2)
+  int seed_point = -1;     ///< s_k, the iso-point maximising Eq. 4 at v_i
+  int target_point = -1;   ///< s_k', the iso-point chosen by Eq. 5
+  double eta = 0.0;        ///< Eq. 5 terms at the chosen s_k'
+  double zeta = 0.0;
+};
+
+struct NbvDiagnostics {
+  std::size_t iso_points = 0;
+  std::size_t active_points = 0;    ///< iso-points with 1 - f > tolerance (the others cannot raise g)
+  std::size_t voxels = 0;
+  std::size_t candidates = 0;       ///< empty voxels within [d_n, d_f] of the surface
+  std::size_t clusters = 0;         ///< fast path: bounding clusters of active iso-points
+  std::size_t pair_evaluations = 0;  ///< (voxel, iso-point) weight evaluations
+  std::size_t rays_cast = 0;        ///< visibility rays for the field
+  std::size_t bound_evaluations = 0;  ///< fast path: (block or voxel, cluster) bounds evaluated
+  std::size_t cell_maxima = 0;      ///< §5.2: cells with a candidate of g > 0
+  std::size_t above_threshold = 0;  ///< cell maxima with g >= min_score
+  std::size_t dropped_unreachable = 0;   ///< views the rig cannot reach (dropped, never moved)
+  std::size_t dropped_out_of_range = 0;  ///< views with no visible target within [d_n, d_f]
+  double nn_path_length = 0.0;      ///< path length of the nearest-neighbour order
+  double seconds_space = 0.0;       ///< search space and candidates
+  double seconds_field = 0.0;       ///< Eq. 4
+  double seconds_select = 0.0;      ///< §5.2 selection and Eq. 5 aiming
+  double seconds_path = 0.0;
+  double seconds_total = 0.0;
+  std::vector<std::string> messages;  ///< human-readable notes (e.g. "no low-confidence iso-points")
+};
+
+struct PlanResult {
+  std::vector<NbvView> views;  ///< in path order
+  double path_length = 0.0;    ///< Rig::travel_cost summed from the current pose (if given) through the views
+  ViewingField field;
+  NbvDiagnostics diagnostics;
+};
+
+/// Next-best-view planner. Holds the Embree scene of the current Poisson mesh (built once; call
+/// set_mesh() after a new reconstruction). plan() and compute_field() are const and may be called
+/// concurrently. Results do not depend on the number of threads.
+class NbvPlanner {
+ public:
+  /// Throws InputError for an empty or invalid mesh, an invalid scanner (near >= far, ...), rig or options.
+  NbvPlanner(const TriangleMesh& mesh, ScannerSpec scanner, Rig rig = {}, NbvOptions options = {});
+  ~NbvPlanner();
+  NbvPlanner(NbvPlanner&&) noexcept;
+  NbvPlanner& operator=(NbvPlanner&&) noexcept;
+
+  void set_mesh(const TriangleMesh& mesh);
+  void set_options(const NbvOptions& options);
+  const NbvOptions& options() const;
+  const ScannerSpec& scanner() const;
+  const Rig& rig() const;
+
+  /// One planning iteration: field (Eq. 4), selection (§5.2), aiming (Eq. 5), path from `from`.
+  /// `iso`: iso-points with outward normals and "f" in [0, 1]. `field`: optional inside test (else the
+  /// mesh is used). Without low-confidence iso-points the result has no views and says so in
+  /// diagnostics.messages. Throws InputError for bad iso-points.
+  PlanResult plan(const PointCloud& iso, const std::optional<Pose>& from = std::nullopt,
+                  const ImplicitField* field = nullptr, const ProgressCallback& progress = {}) const;
+
+  /// Only the search space and the viewing vector field (Eq. 4), with options().method.
+  ViewingField compute_field(const PointCloud& iso, const ImplicitField* field = nullptr,
+                             NbvDiagnostics* diagnostics = nullptr) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// One-off form of NbvPlanner::plan.
+PlanResult plan_next_best_views(const TriangleMesh& mesh, const PointCloud& iso, const ScannerSpec& scanner,
+                                const Rig& rig = {}, const std::optional<Pose>& from = std::nullopt,
+                                const NbvOptions& options = {}, const ImplicitField* field = nullptr);
+
+/// The search box B (§5.1): Z vertical, X-Y along the principal axes of the points projected on
+/// the horizontal plane, extended by d_f around the points; `resolution` voxels per axis.
+/// Throws InputError for no points or resolution < 1.
+GridGeometry search_box(const std::vector<Vec3>& points, double far, int resolution);
+
+/// Result of ordering views into a path.
+struct PathOrder {
+  std::vector<std::size_t> order;  ///< permutation of the views
+  double length = 0.0;             ///< Rig::travel_cost summed along the path (from `from` if given)
+  double nn_length = 0.0;          ///< the same for the nearest-neighbour order
+};
+
+/// Orders `views` into a short open path starting at `from` (or, without it, at views[0]):
+/// nearest neighbour by Rig::travel_cost, then improved (exact for <= 10 views, 2-opt and
+/// or-opt moves otherwise) when `optimize`; never longer than the nearest-neighbour order.
+PathOrder order_path(const std::vector<Pose>& views, const std::optional<Pose>& from, const Rig& rig,
+                     bool optimize = true);
+
+/// Eq. 4's weight without visibility: w_d * w_o for a voxel v and an iso-point s with OUTWARD unit
+/// normal n_out (the paper's inward n_k = -n_out), scanner distances from `scanner`.
+double view_weight(const Vec3& v, const Vec3& s, const Vec3& n_out, const ScannerSpec& scanner,
+                   const NbvOptions& options = {});
+
+// ---- writers (all atomic) -------------------------------------------------------------------------
+/// {"views":[{"position":..,"direction":..,"up":..,"score":g,"target":[x,y,z]}..],"path_length":L}
+nlohmann::json views_to_json(const PlanResult& result);
+void write_views_json(const std::filesystem::path& path, const PlanResult& result);
+/// Diagnostics as a JSON object (counts, timings, messages).
+nlohmann::json diagnostics_to_json(const NbvDiagnostics& d);
+/// The whole field g as an NRRD volume: raw little-endian float32, x fastest, with "space
+/// directions" (axes * spacing) and "space origin" (centre of voxel (0,0,0)) in the header.
+void write_field_nrrd(const std::filesystem::path& path, const ViewingField& field);
+/// The magnitude g on the horizontal grid layer through `center` (e.g. the object's centre) as a
+/// colour-mapped PNG (the paper's Figure 2(d)/7 bottom row). Voxels inside the solid are dark grey,
+/// other non-candidates black; views are marked (white ring, line along their direction projected on the slice).
+void write_slice_png(const std::filesystem::path& path, const ViewingField& field, const Vec3& center,
+                     const std::vector<NbvView>& views = {}, int min_pixels = 512);
+
+}  // namespace autoscan::nbv

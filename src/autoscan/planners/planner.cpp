@@ -1,0 +1,177 @@
+#include "autoscan/planners/planner.hpp"
+
+#include <algorithm>
+#include <map>
+#include <mutex>
+
+#include "autoscan/core/error.hpp"
+
+namespace autoscan::planners {
+
+namespace {
+
+/// Ours (paper §5): the viewing vector field (Eq. 4), field-guided selection (§5.2), aiming (Eq. 5)
+/// and path ordering, by the nbv module. Keeps the NbvPlanner (its Embree scene) across iterations.
+class PoissonPlanner final : public Planner {
+ public:
+  explicit PoissonPlanner(const PlannerOptions& options) : options_(options) {
+    options_.nbv.validate();
+    AUTOSCAN_REQUIRE(options_.params.is_object(), "planner 'poisson': params must be a JSON object");
+    for (const auto& [key, value] : options_.params.items())
+      AUTOSCAN_REQUIRE(false, "planner 'poisson': unknown parameter '{}' (configure it through the nbv options)",
+                       key);
+  }
+  std::string name() const override { return "poisson"; }
+
+  PlanOutput plan(const ModelState& state, const Pose& current, Rng& rng) override {
+    (void)rng;  // the method is deterministic
+    AUTOSCAN_REQUIRE(!state.mesh.empty(), "planner 'poisson': the model has no Poisson mesh yet");
+    AUTOSCAN_REQUIRE(!state.iso_points.empty() && state.iso_points.scalars.has("f"),
+                     "planner 'poisson': the model has no iso-points with confidence 'f'");
+    if (!nbv_)
+      nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, options_.nbv);
+    else
+      nbv_->set_mesh(state.mesh);
+    auto result = std::make_shared<nbv::PlanResult>(
+        nbv_->plan(state.iso_points, current, state.field.get(), options_.progress));
+    PlanOutput out;
+    out.views.reserve(result->views.size());
+    for (const auto& v : result->views) out.views.push_back({v.pose, v.score, v.target});
+    out.path_length = result->path_length;
+    out.diagnostics = nbv::diagnostics_to_json(result->diagnostics);
+    const Vec3 center = state.acquired_bounds.empty() ? state.mesh.bounds().center() : state.acquired_bounds.center();
+    out.write_artifacts = [result, center](const std::filesystem::path& dir) {
+      nbv::write_slice_png(dir / "field_slice.png", result->field, center, result->views);
+    };
+    return out;
+  }
+
+ private:
+  PlannerOptions options_;
+  std::unique_ptr<nbv::NbvPlanner> nbv_;
+};
+
+struct Registry {
+  std::mutex m;
+  std::map<std::string, PlannerFactory> factories;
+  Registry() {
+    // Built-in planners. Baselines (random, sphere, density, curvature, visibility, pvs) are added here.
+    factories["poisson"] = [](const PlannerOptions& o) { return std::make_unique<PoissonPlanner>(o); };
+  }
+};
+
+Registry& registry() {
+  static Registry r;
+  return r;
+}
+
+}  // namespace
+
+std::unique_ptr<Planner> make_planner(const std::string& name, const PlannerOptions& options) {
+  PlannerFactory f;
+  {
+    auto& r = registry();
+    std::lock_guard lock(r.m);
+    const auto it = r.factories.find(name);
+    if (it == r.factories.end()) {
+      std::string known;
+      for (const auto& [n, unused] : r.factories) known += (known.empty() ? "" : ", ") + n;
+      throw InputError(fmt::format("unknown planner '{}' (known: {})", name, known));
+    }
+    f = it->second;
+  }
+  auto p = f(options);
+  AUTOSCAN_CHECK(p != nullptr, "planner '{}': factory returned nothing", name);
+  return p;
+}
+
+std::vector<std::string> planner_names() {
+  auto& r = registry();
+  std::lock_guard lock(r.m);
+  std::vector<std::string> names;
+  for (const auto& [n, unused] : r.factories) names.push_back(n);
+  return names;
+}
+
+void register_planner(const std::string& name, PlannerFactory factory) {
+  AUTOSCAN_REQUIRE(!name.empty(), "register_planner: empty planner name");
+  AUTOSCAN_REQUIRE(static_cast<bool>(factory), "register_planner: planner '{}' has no factory", name);
+  auto& r = registry();
+  std::lock_guard lock(r.m);
+  r.factories[name] = std::move(factory);
+}
+
+double path_length(const Rig& rig, const Pose& current, const std::vector<PlannedView>& views) {
+  double len = 0.0;
+  const Pose* prev = &current;
+  for (const auto& v : views) {
+    len += rig.travel_cost(*prev, v.pose);
+    prev = &v.pose;
+  }
+  return len;
+}
+
+std::vector<PlannedView> order_greedy(const Rig& rig, const Pose& current, std::vector<PlannedView> views) {
+  std::vector<PlannedView> out;
+  out.reserve(views.size());
+  std::vector<bool> used(views.size(), false);
+  Pose at = current;
+  for (std::size_t n = 0; n < views.size(); ++n) {
+    std::size_t best = views.size();
+    double best_cost = 0.0;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      if (used[i]) continue;
+      const double c = rig.travel_cost(at, views[i].pose);
+      if (best == views.size() || c < best_cost) {
+        best = i;
+        best_cost = c;
+      }
+    }
+    used[best] = true;
+    at = views[best].pose;
+    out.push_back(std::move(views[best]));
+  }
+  return out;
+}
+
+nlohmann::json views_to_json(const PlanOutput& out, const nlohmann::json& extra) {
+  nlohmann::json j = nlohmann::json::object();
+  if (extra.is_object())
+    for (const auto& [k, v] : extra.items()) j[k] = v;
+  nlohmann::json arr = nlohmann::json::array();
+  for (const auto& v : out.views) {
+    nlohmann::json e = to_json(v.pose);
+    e["score"] = v.score;
+    e["target"] = {v.target.x(), v.target.y(), v.target.z()};
+    arr.push_back(std::move(e));
+  }
+  j["views"] = std::move(arr);
+  j["path_length"] = out.path_length;
+  return j;
+}
+
+std::vector<PlannedView> views_from_json(const nlohmann::json& j, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object() && j.contains("views") && j.at("views").is_array(),
+                   "{}: expected an object with a 'views' array", what);
+  std::vector<PlannedView> out;
+  std::size_t i = 0;
+  for (const auto& e : j.at("views")) {
+    const std::string w = fmt::format("{}: views[{}]", what, i++);
+    PlannedView v;
+    v.pose = pose_from_json(e, w);
+    if (e.contains("score")) {
+      AUTOSCAN_REQUIRE(e.at("score").is_number(), "{}: 'score' is not a number", w);
+      v.score = e.at("score").get<double>();
+    }
+    if (e.contains("target")) {
+      const auto& t = e.at("target");
+      AUTOSCAN_REQUIRE(t.is_array() && t.size() == 3 && t[0].is_number() && t[1].is_number() && t[2].is_number(),
+                       "{}: 'target' must be an array of 3 numbers", w);
+      v.target = Vec3(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
+}  // namespace autoscan::planners

@@ -1,0 +1,79 @@
+#pragma once
+// Confidence-weighted ICP (paper §5.3, after Masuda 2002): registers a new scan (source) to the
+// model (target). Each correspondence (p_i, q_j), q_j the target point nearest to T p_i, is
+// weighted by the target point's weight w_j (the session passes the confidence f of the iso-point
+// nearest to q_j, so confident regions anchor the registration) and by nothing else. Far pairs are
+// trimmed (absolute distance threshold, then a percentile). Each iteration minimises
+//   point-to-plane:  sum_i w_j ((R p_i + t - q_j) . n_j)^2      (target with normals)
+//   point-to-point:  sum_i w_j  |R p_i + t - q_j|^2              (fallback without normals)
+// linearised in the rotation (point-to-plane) or in closed form (weighted Kabsch, point-to-point).
+// Deterministic: the correspondence search is parallel but every reduction runs in index order.
+#include <nlohmann/json_fwd.hpp>
+
+#include <Eigen/Geometry>
+#include <span>
+#include <string>
+
+#include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/progress.hpp"
+
+namespace autoscan::registration {
+
+struct IcpOptions {
+  int max_iterations = 50;                   ///< hard cap on ICP iterations
+  double max_correspondence_distance = 0.0;  ///< pairs farther apart are dropped; 0 = auto (2 % of the
+                                             ///< target's bounding-box diagonal)
+  double trim_fraction = 0.9;                ///< keep this share of the closest remaining pairs (1 = no
+                                             ///< percentile trimming; Masuda 2002 uses a robust cut too)
+  double translation_tolerance = 1e-7;       ///< converged when an update moves less than this ...
+  double rotation_tolerance_deg = 1e-5;      ///< ... and turns less than this (degrees)
+  bool point_to_plane = true;                ///< use target normals when present
+  bool allow_point_to_point = true;          ///< without target normals fall back to point-to-point;
+                                             ///< false makes a target without normals an InputError
+  std::size_t max_source_points = 20000;     ///< deterministic stride subsampling of the scan (0 = all)
+  std::size_t min_correspondences = 12;      ///< fewer pairs: give up and return the initial transform
+  double damping = 1e-9;                     ///< Levenberg damping of the 6x6 normal equations (relative
+                                             ///< to their trace) against sliding along symmetric shapes
+};
+
+struct IcpResult {
+  /// Maps the source (new scan) onto the target: q ≈ transform * p. Includes `initial`.
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  /// The correction applied on top of `initial`: transform = correction * initial.
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
+  double correction_translation = 0.0;  ///< |translation of `correction`|
+  double correction_rotation_deg = 0.0;  ///< rotation angle of `correction` (degrees)
+  double rms_before = 0.0;  ///< RMS residual of the trimmed pairs at `initial` (metric of `method`)
+  double rms_after = 0.0;   ///< same at `transform`, same distance threshold
+  double inlier_fraction = 0.0;  ///< share of (sub-sampled) source points with a kept pair at the end
+  std::size_t correspondences = 0;  ///< kept pairs in the last iteration
+  std::size_t source_points_used = 0;
+  int iterations = 0;
+  bool converged = false;       ///< the update fell below the tolerances before max_iterations
+  bool degenerate = false;      ///< too few pairs or a singular system: `transform` = `initial`
+  bool uniform_weights = false;  ///< all kept pairs had zero weight, so weights were ignored
+  std::string method;            ///< "point_to_plane" or "point_to_point"
+  double max_correspondence_distance = 0.0;  ///< the threshold used
+  double seconds = 0.0;
+};
+
+/// Registers `source` to `target`.
+/// @param source          #S scan points (only positions are used)
+/// @param target          #T model points, with normals for point-to-plane
+/// @param target_weights  #T non-negative weights (e.g. confidence f), or empty for uniform weights
+/// @param initial         starting transform (identity: trust the robot's reported pose)
+/// Throws InputError for empty clouds, a weight count that is not #T, negative/non-finite weights or
+/// invalid options.
+IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights = {},
+              const IcpOptions& options = {}, const Eigen::Isometry3d& initial = Eigen::Isometry3d::Identity(),
+              ProgressCallback progress = {});
+
+/// {"method", "iterations", "converged", "degenerate", "rms_before", "rms_after", "inlier_fraction",
+///  "correspondences", "correction_translation", "correction_rotation_deg", "correction": 4x4 row-major,
+///  "max_correspondence_distance", "seconds"}
+nlohmann::json to_json(const IcpResult& r);
+
+/// Rotation angle of an isometry, in degrees.
+double rotation_angle_deg(const Eigen::Isometry3d& T);
+
+}  // namespace autoscan::registration

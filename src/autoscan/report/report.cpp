@@ -1,0 +1,284 @@
+#include "autoscan/report/report.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/random.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/report/bundle.hpp"
+
+namespace autoscan::report {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string base64(const void* data, std::size_t size) {
+  static constexpr char tbl[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  const auto* b = static_cast<const unsigned char*>(data);
+  std::string out;
+  out.reserve((size + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < size; i += 3) {
+    const unsigned v = (b[i] << 16) | (b[i + 1] << 8) | b[i + 2];
+    out += tbl[(v >> 18) & 63];
+    out += tbl[(v >> 12) & 63];
+    out += tbl[(v >> 6) & 63];
+    out += tbl[v & 63];
+  }
+  if (i < size) {
+    unsigned v = b[i] << 16;
+    if (i + 1 < size) v |= b[i + 1] << 8;
+    out += tbl[(v >> 18) & 63];
+    out += tbl[(v >> 12) & 63];
+    out += i + 1 < size ? tbl[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+namespace {
+
+// Collects the binary buffers of the page; each becomes a <script type="application/octet-stream">.
+struct Buffers {
+  std::vector<std::pair<std::string, std::string>> items;  // id, base64
+  std::size_t bytes = 0;
+  template <typename T>
+  std::string add(const std::vector<T>& v) {
+    std::string id = "buf-" + std::to_string(items.size());
+    items.emplace_back(id, base64(v.data(), v.size() * sizeof(T)));
+    bytes += v.size() * sizeof(T);
+    return id;
+  }
+};
+
+std::optional<json> read_json_file(const fs::path& p) {
+  std::error_code ec;
+  if (!fs::exists(p, ec)) return std::nullopt;
+  auto j = json::parse(read_text_file(p), nullptr, false);
+  AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON", p.string());
+  return j;
+}
+
+json number_or_null(const json& obj, const char* key) {
+  if (obj.is_object() && obj.contains(key) && obj[key].is_number()) return obj[key];
+  return nullptr;
+}
+
+std::string escape_html(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '&': o += "&amp;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+// JSON embedded in a <script> must not contain "</".
+std::string script_safe(std::string s) {
+  std::string::size_type pos = 0;
+  while ((pos = s.find("</", pos)) != std::string::npos) {
+    s.replace(pos, 2, "<\\/");
+    pos += 3;
+  }
+  return s;
+}
+
+const char* kStyle = R"CSS(
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0;background:#fafafa;color:#222}
+header{padding:10px 16px;background:#1f2937;color:#fff}header h1{font-size:18px;margin:0}
+header p{margin:4px 0 0;font-size:13px;color:#cbd5e1}
+main{display:grid;grid-template-columns:minmax(0,1fr) 380px;gap:12px;padding:12px}
+#viewport{height:68vh;min-height:420px;background:#f4f4f4;border:1px solid #ddd;border-radius:6px;overflow:hidden}
+.controls{display:flex;flex-wrap:wrap;gap:12px;align-items:center;margin:8px 0;font-size:14px}
+#iteration{width:260px}#slice{max-width:100%;border:1px solid #ddd;border-radius:4px;image-rendering:pixelated}
+.plot{background:#fff;border:1px solid #ddd;border-radius:6px;margin:0 8px 8px 0}
+.plot-title{font-size:13px;font-weight:600}.tick{font-size:10px;fill:#555}
+#plots{display:flex;flex-wrap:wrap}table{border-collapse:collapse;font-size:13px}td,th{padding:2px 8px;border-bottom:1px solid #eee;text-align:right}
+.legend span{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:middle}
+)CSS";
+
+}  // namespace
+
+ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
+  const fs::path session_path = dir / "session.json";
+  auto session_opt = read_json_file(session_path);
+  AUTOSCAN_REQUIRE(session_opt.has_value(), "{}: no session.json (is this a session directory?)", dir.string());
+  const json& session = *session_opt;
+  AUTOSCAN_REQUIRE(session.is_object() && session.contains("iterations") && session["iterations"].is_array(),
+                   "{}: missing 'iterations' array", session_path.string());
+  const auto bundle = viewer_bundle();
+  if (bundle.empty())
+    throw RuntimeError("autoscan report: the viewer bundle was not built into this binary (run scripts/setup.sh)");
+
+  Buffers bufs;
+  json manifest;
+  manifest["title"] = opt.title.empty() ? fs::absolute(dir).filename().string() : opt.title;
+  if (session.contains("scanner")) manifest["scanner"] = session["scanner"];
+  json iterations = json::array();
+  json plots;
+  for (const char* k : {"mean_f", "mean_f_g", "mean_f_s", "accuracy_mean", "completeness_mean", "coverage"})
+    plots[k] = json::array();
+  json seconds = json::object();
+  Rng rng(opt.seed);
+  ReportResult result;
+
+  const auto& its = session["iterations"];
+  for (std::size_t k = 0; k < its.size(); ++k) {
+    const json& rec = its[k];
+    const int index = rec.value("index", static_cast<int>(k));
+    const fs::path idir = dir / "iterations" / fmt::format("iter_{:03d}", index);
+    json it;
+    it["index"] = index;
+    it["points"] = number_or_null(rec, "points");
+    it["mean_f"] = number_or_null(rec, "mean_f");
+    plots["mean_f"].push_back(number_or_null(rec, "mean_f"));
+    plots["mean_f_g"].push_back(number_or_null(rec, "mean_f_g"));
+    plots["mean_f_s"].push_back(number_or_null(rec, "mean_f_s"));
+    const json truth = rec.value("truth", json::object());
+    plots["accuracy_mean"].push_back(number_or_null(truth, "accuracy_mean"));
+    plots["completeness_mean"].push_back(number_or_null(truth, "completeness_mean"));
+    plots["coverage"].push_back(number_or_null(truth, "coverage"));
+    if (rec.contains("seconds") && rec["seconds"].is_object()) {
+      for (const auto& [stage, v] : rec["seconds"].items()) {
+        if (!seconds.contains(stage)) seconds[stage] = json::array();
+        while (seconds[stage].size() < k) seconds[stage].push_back(nullptr);
+        seconds[stage].push_back(v.is_number() ? v : json(nullptr));
+      }
+    }
+    if (truth.contains("histogram")) manifest["histogram"] = truth["histogram"];
+
+    std::error_code ec;
+    if (fs::exists(idir / "cloud.ply", ec)) {
+      const PointCloud cloud = io::read_point_cloud(idir / "cloud.ply");
+      const std::size_t n = cloud.size();
+      std::vector<std::size_t> keep;
+      if (n > opt.max_points) {
+        // Deterministic display decimation: a seeded Bernoulli pick with the budget's rate.
+        const double rate = static_cast<double>(opt.max_points) / static_cast<double>(n);
+        for (std::size_t i = 0; i < n; ++i)
+          if (rng.uniform() < rate) keep.push_back(i);
+      } else {
+        keep.resize(n);
+        for (std::size_t i = 0; i < n; ++i) keep[i] = i;
+      }
+      std::vector<float> pos;
+      pos.reserve(keep.size() * 3);
+      std::vector<std::uint8_t> isnew;
+      const auto* newcol = cloud.scalars.find("new");
+      for (auto i : keep) {
+        for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(cloud.positions[i][c]));
+        if (newcol) isnew.push_back((*newcol)[i] > 0.5 ? 1 : 0);
+      }
+      json c{{"count", keep.size()}, {"total", n}, {"positions", bufs.add(pos)}};
+      if (newcol) c["new"] = bufs.add(isnew);
+      it["cloud"] = c;
+      result.points_shown += keep.size();
+    }
+    if (fs::exists(idir / "mesh.ply", ec)) {
+      const TriangleMesh mesh = io::read_mesh(idir / "mesh.ply");
+      std::vector<float> pos;
+      pos.reserve(mesh.vertices.size() * 3);
+      for (const auto& v : mesh.vertices)
+        for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(v[c]));
+      std::vector<std::uint32_t> idx;
+      const std::size_t stride = mesh.faces.size() > opt.max_mesh_faces
+                                     ? (mesh.faces.size() + opt.max_mesh_faces - 1) / opt.max_mesh_faces
+                                     : 1;
+      for (std::size_t f = 0; f < mesh.faces.size(); f += stride)
+        for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(mesh.faces[f][c]));
+      json m{{"vertices", mesh.vertices.size()}, {"positions", bufs.add(pos)}, {"indices", bufs.add(idx)}};
+      json scalars = json::object();
+      for (const char* s : {"f", "f_g", "f_s"}) {
+        if (const auto* col = mesh.vertex_scalars.find(s)) {
+          std::vector<float> v(col->begin(), col->end());
+          scalars[s] = bufs.add(v);
+        }
+      }
+      m["scalars"] = scalars;
+      it["mesh"] = m;
+    }
+    if (auto views = read_json_file(idir / "views.json")) {
+      it["views"] = views->value("views", json::array());
+      if (views->contains("start")) it["start"] = (*views)["start"];
+      it["path_length"] = number_or_null(*views, "path_length");
+    }
+    if (fs::exists(idir / "field_slice.png", ec)) {
+      const std::string png = read_text_file(idir / "field_slice.png");
+      it["slice"] = "data:image/png;base64," + base64(png.data(), png.size());
+    }
+    iterations.push_back(it);
+  }
+  for (auto& [stage, v] : seconds.items())
+    while (v.size() < its.size()) v.push_back(nullptr);
+  plots["seconds"] = seconds;
+  manifest["iterations"] = iterations;
+  manifest["plots"] = plots;
+  AUTOSCAN_REQUIRE(!iterations.empty(), "{}: the session has no iterations yet", session_path.string());
+
+  // Summary table.
+  std::ostringstream table;
+  table << "<table><tr><th>iteration</th><th>points</th><th>views</th><th>mean f</th><th>f_g</th><th>f_s</th>"
+           "<th>coverage</th></tr>";
+  for (const auto& rec : its) {
+    auto num = [&](const json& o, const char* key, int prec) {
+      return o.is_object() && o.contains(key) && o[key].is_number() ? fmt::format("{:.{}f}", o[key].get<double>(), prec)
+                                                                      : std::string("–");
+    };
+    table << "<tr><td>" << rec.value("index", 0) << "</td><td>" << num(rec, "points", 0) << "</td><td>"
+          << num(rec, "views", 0) << "</td><td>" << num(rec, "mean_f", 3) << "</td><td>" << num(rec, "mean_f_g", 3)
+          << "</td><td>" << num(rec, "mean_f_s", 3) << "</td><td>"
+          << num(rec.value("truth", json::object()), "coverage", 3) << "</td></tr>";
+  }
+  table << "</table>";
+  std::string stop = session.contains("stop_reason") && session["stop_reason"].is_string()
+                         ? session["stop_reason"].get<std::string>()
+                         : "still running";
+  const std::string title = manifest["title"].get<std::string>();
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>autoscan report — "
+       << escape_html(title) << "</title><style>" << kStyle << "</style></head><body>\n"
+       << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size()
+       << " iterations · planner " << escape_html(session.value("planner", std::string("poisson")))
+       << " · stop: " << escape_html(stop) << "</p></header>\n<main><section>\n"
+       << "<div class=\"controls\"><label>iteration <input type=\"range\" id=\"iteration\" min=\"0\" step=\"1\"></label>"
+       << "<span id=\"iteration-label\"></span></div>\n"
+       << "<div class=\"controls\"><label>colour mesh by <select id=\"color-by\"><option value=\"f\">f (confidence)"
+          "</option><option value=\"f_g\">f_g (completeness)</option><option value=\"f_s\">f_s (smoothness)</option>"
+          "</select></label><label><input type=\"checkbox\" id=\"show-cloud\" checked> points</label>"
+          "<label><input type=\"checkbox\" id=\"show-mesh\" checked> Poisson mesh</label>"
+          "<label><input type=\"checkbox\" id=\"show-views\" checked> next views</label>"
+          "<label>mesh opacity <input type=\"range\" id=\"mesh-opacity\" min=\"0.1\" max=\"1\" step=\"0.05\" "
+          "value=\"0.85\"></label>"
+          "<span class=\"legend\"><span style=\"background:#3b4cc0\"></span>low <span style=\"background:#b40426\">"
+          "</span>high · <span style=\"background:#d91a1a\"></span>new points · <span style=\"background:#1a7f37\">"
+          "</span>views · <span style=\"background:#d97706\"></span>path</span></div>\n"
+       << "<div id=\"viewport\"></div>\n</section><aside><h3>Viewing vector field (slice)</h3>"
+       << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3>" << table.str()
+       << "</aside></main>\n<section style=\"padding:0 12px 12px\"><h3>Plots</h3><div id=\"plots\"></div></section>\n"
+       << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(manifest.dump()) << "</script>\n";
+  for (const auto& [id, b64] : bufs.items)
+    html << "<script id=\"" << id << "\" type=\"application/octet-stream\">" << b64 << "</script>\n";
+  html << "<script>" << script_safe(std::string(bundle)) << "</script>\n</body></html>\n";
+
+  result.html = dir / "report.html";
+  const std::string text = html.str();
+  write_text_atomic(result.html, text);
+  result.iterations = static_cast<int>(iterations.size());
+  result.bytes = text.size();
+  log::info("report: wrote {} ({} iterations, {:.1f} MB)", result.html.string(), result.iterations,
+            static_cast<double>(text.size()) / 1e6);
+  return result;
+}
+
+}  // namespace autoscan::report

@@ -1,0 +1,589 @@
+#include "autoscan/scanner/virtual_scanner.hpp"
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/random.hpp"
+#include "autoscan/core/timer.hpp"
+
+namespace autoscan::scanner {
+namespace {
+
+constexpr int kPacket = 16;  // rays per Embree packet (rtcIntersect16)
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+struct DeviceDeleter {
+  void operator()(RTCDevice d) const { rtcReleaseDevice(d); }
+};
+struct SceneDeleter {
+  void operator()(RTCScene s) const { rtcReleaseScene(s); }
+};
+using DevicePtr = std::unique_ptr<std::remove_pointer_t<RTCDevice>, DeviceDeleter>;
+using ScenePtr = std::unique_ptr<std::remove_pointer_t<RTCScene>, SceneDeleter>;
+
+void embree_error(void* /*user*/, RTCError code, const char* str) {
+  log::warn("embree error {}: {}", static_cast<int>(code), str ? str : "");
+}
+
+void check_device(RTCDevice device, const char* what) {
+  const RTCError e = rtcGetDeviceError(device);
+  AUTOSCAN_CHECK(e == RTC_ERROR_NONE, "scanner: Embree failed while {} (error code {})", what, static_cast<int>(e));
+}
+
+/// Per-row counters, summed after the parallel loop (the sum does not depend on scheduling).
+struct Counters {
+  std::size_t hits = 0, points = 0, range = 0, incidence = 0, proj_fov = 0, proj_incidence = 0, shadow = 0,
+              outliers = 0, shadow_rays = 0;
+};
+
+/// The camera and projector of one scan, in the (shifted) Embree frame and in double precision.
+struct Rays {
+  Eigen::Isometry3d world_from_true;  // the true camera pose (world frame)
+  Vec3 origin_local;                  // camera centre in the Embree frame (world - shift)
+  Mat3 rot;                           // true camera rotation (camera → world)
+  Vec3 projector_local;               // projector centre in the Embree frame
+  Mat3 projector_rot;                 // projector rotation (projector → world)
+};
+
+}  // namespace
+
+struct VirtualScanner::Impl {
+  ScannerSpec spec;
+  VirtualScannerOptions options;
+  AABB box;
+  Vec3 shift = Vec3::Zero();  // the Embree scene holds vertices - shift (better float precision)
+  double diag = 0.0;
+  std::vector<Vec3> vertices;  // shifted, double precision
+  std::vector<Tri> faces;
+  std::vector<Vec3> normals;  // unit face normals (zero for degenerate faces)
+  DevicePtr device;
+  ScenePtr scene;
+  // Camera intrinsics: pixel (c, r) looks along ((c + 0.5 - cx)/f, (r + 0.5 - cy)/f, 1).
+  double f = 1.0, cx = 0.0, cy = 0.0;
+  double tan_proj_h = 0.0, tan_proj_v = 0.0;
+  double cos_max = 0.0, tan_max = 0.0;
+
+  void intersect(int n, const Vec3& org, const Vec3* dirs, unsigned* prim) const;
+  void occluded(int n, const Vec3& org, const Vec3* dirs, const double* tfar, const bool* active, bool* hit) const;
+  int crossings(const Vec3& org_local, const Vec3& dir) const;
+  ScanResult run(const Pose& commanded, const Eigen::Isometry3d& world_from_true, std::uint64_t scan_id,
+                 const Rng& scan_rng) const;
+  void check_pose(const Pose& pose, const std::string& what) const;
+};
+
+void VirtualScanner::Impl::intersect(int n, const Vec3& org, const Vec3* dirs, unsigned* prim) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  if (options.ray_mode == RayMode::packets) {
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(64) int valid[kPacket];
+    RTCRayHit16 rh;
+    for (int i = 0; i < kPacket; ++i) {
+      valid[i] = i < n ? -1 : 0;
+      const Vec3& d = dirs[i < n ? i : 0];
+      rh.ray.org_x[i] = static_cast<float>(org.x());
+      rh.ray.org_y[i] = static_cast<float>(org.y());
+      rh.ray.org_z[i] = static_cast<float>(org.z());
+      rh.ray.dir_x[i] = static_cast<float>(d.x());
+      rh.ray.dir_y[i] = static_cast<float>(d.y());
+      rh.ray.dir_z[i] = static_cast<float>(d.z());
+      rh.ray.tnear[i] = 0.0f;
+      rh.ray.tfar[i] = std::numeric_limits<float>::infinity();
+      rh.ray.time[i] = 0.0f;
+      rh.ray.mask[i] = static_cast<unsigned>(-1);
+      rh.ray.id[i] = static_cast<unsigned>(i);
+      rh.ray.flags[i] = 0;
+      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect16(valid, scene.get(), &ctx, &rh);
+    for (int i = 0; i < n; ++i) prim[i] = rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : rh.hit.primID[i];
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    RTCRayHit rh;
+    rh.ray.org_x = static_cast<float>(org.x());
+    rh.ray.org_y = static_cast<float>(org.y());
+    rh.ray.org_z = static_cast<float>(org.z());
+    rh.ray.dir_x = static_cast<float>(dirs[i].x());
+    rh.ray.dir_y = static_cast<float>(dirs[i].y());
+    rh.ray.dir_z = static_cast<float>(dirs[i].z());
+    rh.ray.tnear = 0.0f;
+    rh.ray.tfar = std::numeric_limits<float>::infinity();
+    rh.ray.time = 0.0f;
+    rh.ray.mask = static_cast<unsigned>(-1);
+    rh.ray.id = static_cast<unsigned>(i);
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene.get(), &ctx, &rh);
+    prim[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : rh.hit.primID;
+  }
+}
+
+void VirtualScanner::Impl::occluded(int n, const Vec3& org, const Vec3* dirs, const double* tfar, const bool* active,
+                                    bool* hit) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  if (options.ray_mode == RayMode::packets) {
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(64) int valid[kPacket];
+    RTCRay16 r;
+    for (int i = 0; i < kPacket; ++i) {
+      const bool on = i < n && active[i];
+      valid[i] = on ? -1 : 0;
+      const Vec3& d = dirs[on ? i : 0];
+      r.org_x[i] = static_cast<float>(org.x());
+      r.org_y[i] = static_cast<float>(org.y());
+      r.org_z[i] = static_cast<float>(org.z());
+      r.dir_x[i] = static_cast<float>(d.x());
+      r.dir_y[i] = static_cast<float>(d.y());
+      r.dir_z[i] = static_cast<float>(d.z());
+      r.tnear[i] = 0.0f;
+      r.tfar[i] = on ? static_cast<float>(tfar[i]) : 0.0f;
+      r.time[i] = 0.0f;
+      r.mask[i] = static_cast<unsigned>(-1);
+      r.id[i] = static_cast<unsigned>(i);
+      r.flags[i] = 0;
+    }
+    rtcOccluded16(valid, scene.get(), &ctx, &r);
+    // Embree sets tfar to -inf for occluded rays.
+    for (int i = 0; i < n; ++i) hit[i] = active[i] && r.tfar[i] < 0.0f;
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    hit[i] = false;
+    if (!active[i]) continue;
+    RTCRay r;
+    r.org_x = static_cast<float>(org.x());
+    r.org_y = static_cast<float>(org.y());
+    r.org_z = static_cast<float>(org.z());
+    r.dir_x = static_cast<float>(dirs[i].x());
+    r.dir_y = static_cast<float>(dirs[i].y());
+    r.dir_z = static_cast<float>(dirs[i].z());
+    r.tnear = 0.0f;
+    r.tfar = static_cast<float>(tfar[i]);
+    r.time = 0.0f;
+    r.mask = static_cast<unsigned>(-1);
+    r.id = static_cast<unsigned>(i);
+    r.flags = 0;
+    rtcOccluded1(scene.get(), &ctx, &r);
+    hit[i] = r.tfar < 0.0f;
+  }
+}
+
+int VirtualScanner::Impl::crossings(const Vec3& org_local, const Vec3& dir) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  int count = 0;
+  float tnear = 0.0f;
+  for (int guard = 0; guard < 1000000; ++guard) {
+    RTCRayHit rh;
+    rh.ray.org_x = static_cast<float>(org_local.x());
+    rh.ray.org_y = static_cast<float>(org_local.y());
+    rh.ray.org_z = static_cast<float>(org_local.z());
+    rh.ray.dir_x = static_cast<float>(dir.x());
+    rh.ray.dir_y = static_cast<float>(dir.y());
+    rh.ray.dir_z = static_cast<float>(dir.z());
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = std::numeric_limits<float>::infinity();
+    rh.ray.time = 0.0f;
+    rh.ray.mask = static_cast<unsigned>(-1);
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene.get(), &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) break;
+    ++count;
+    // Step past this hit (a hit on a shared edge is reported once: the next search starts beyond it).
+    const float step = std::max(static_cast<float>(1e-6 * diag), rh.ray.tfar * 1e-6f);
+    tnear = rh.ray.tfar + step;
+  }
+  return count;
+}
+
+void VirtualScanner::Impl::check_pose(const Pose& pose, const std::string& what) const {
+  pose.validate(what);
+  std::string why;
+  AUTOSCAN_REQUIRE(options.rig.reachable(pose, &why), "{}: unreachable for the {} rig: {}", what,
+                   Rig::kind_name(options.rig.kind), why);
+}
+
+namespace {
+/// Rotation (camera → world) of the projector at `projector` aiming at `target`, with its y axis as
+/// close as possible to the camera's (down).
+Mat3 projector_rotation(const Vec3& projector, const Vec3& target, const Mat3& camera_rot) {
+  Vec3 z = target - projector;
+  if (z.norm() < 1e-12) return camera_rot;
+  z.normalize();
+  Vec3 y = camera_rot.col(1) - camera_rot.col(1).dot(z) * z;
+  if (y.norm() < 1e-9) return camera_rot;
+  y.normalize();
+  Mat3 r;
+  r.col(0) = y.cross(z);
+  r.col(1) = y;
+  r.col(2) = z;
+  return r;
+}
+
+Pose pose_from_isometry(const Eigen::Isometry3d& t) {
+  Pose p;
+  p.position = t.translation();
+  p.direction = t.linear().col(2);
+  p.up = -t.linear().col(1);
+  return p;
+}
+}  // namespace
+
+ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometry3d& world_from_true,
+                                     std::uint64_t scan_id, const Rng& scan_rng) const {
+  Stopwatch clock;
+  const int width = spec.width, height = spec.height;
+  const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  const Eigen::Isometry3d world_from_cmd = commanded.world_from_camera();
+
+  Rays rays;
+  rays.world_from_true = world_from_true;
+  rays.rot = world_from_true.linear();
+  rays.origin_local = world_from_true.translation() - shift;
+  rays.projector_local = rays.origin_local + spec.baseline * rays.rot.col(0);
+  rays.projector_rot = projector_rotation(rays.projector_local,
+                                          rays.origin_local + spec.optimal_distance() * rays.rot.col(2), rays.rot);
+
+  const NoiseSpec& noise = spec.noise;
+  const double mag = noise.magnitude;
+  const double shadow_eps = options.shadow_epsilon * diag;
+
+  // Range image in the TRUE camera frame (after noise), the expected noise std-dev, validity.
+  std::vector<Vec3> pc(npix, Vec3::Zero());
+  std::vector<float> sigma(npix, 0.0f);
+  std::vector<std::uint8_t> valid(npix, 0);
+  std::vector<Counters> row_counts(static_cast<std::size_t>(height));
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+    std::array<Vec3, kPacket> cam_dir, world_dir, shadow_dir;
+    std::array<unsigned, kPacket> prim;
+    std::array<double, kPacket> t_hit, shadow_tfar, cos_cam;
+    std::array<bool, kPacket> active, blocked;
+    for (int row = rows.begin(); row != rows.end(); ++row) {
+      Rng rng = scan_rng.stream(static_cast<std::uint64_t>(row) + 1);
+      Counters& cnt = row_counts[static_cast<std::size_t>(row)];
+      const double yc = (row + 0.5 - cy) / f;
+      for (int col0 = 0; col0 < width; col0 += kPacket) {
+        const int n = std::min(kPacket, width - col0);
+        for (int i = 0; i < n; ++i) {
+          cam_dir[i] = Vec3((col0 + i + 0.5 - cx) / f, yc, 1.0);  // camera z = 1: ray t = depth
+          world_dir[i] = rays.rot * cam_dir[i];
+        }
+        intersect(n, rays.origin_local, world_dir.data(), prim.data());
+        for (int i = 0; i < n; ++i) {
+          active[i] = false;
+          if (prim[i] == RTC_INVALID_GEOMETRY_ID) continue;
+          ++cnt.hits;
+          // Refine the hit in double precision: the ray against the hit triangle's plane.
+          const Vec3& nrm = normals[prim[i]];
+          const double denom = nrm.dot(world_dir[i]);
+          if (std::abs(denom) < 1e-300) {
+            ++cnt.incidence;  // a ray in the triangle's plane: grazing
+            continue;
+          }
+          const double t = nrm.dot(vertices[static_cast<std::size_t>(faces[prim[i]][0])] - rays.origin_local) / denom;
+          if (!(t >= spec.near && t <= spec.far)) {
+            ++cnt.range;
+            continue;
+          }
+          cos_cam[i] = std::abs(denom) / world_dir[i].norm();
+          if (cos_cam[i] < cos_max) {
+            ++cnt.incidence;
+            continue;
+          }
+          const Vec3 n_cam = denom < 0 ? nrm : Vec3(-nrm);  // normal on the camera's side
+          const Vec3 x = rays.origin_local + t * world_dir[i];
+          const Vec3 to_proj = rays.projector_local - x;
+          const Vec3 in_proj = rays.projector_rot.transpose() * (-to_proj);
+          if (!(in_proj.z() > 0 && std::abs(in_proj.x()) <= tan_proj_h * in_proj.z() &&
+                std::abs(in_proj.y()) <= tan_proj_v * in_proj.z())) {
+            ++cnt.proj_fov;
+            continue;
+          }
+          const double dist = to_proj.norm();
+          if (n_cam.dot(to_proj) < cos_max * dist) {
+            ++cnt.proj_incidence;
+            continue;
+          }
+          t_hit[i] = t;
+          shadow_dir[i] = -to_proj;  // projector → hit, t = 1 at the hit
+          shadow_tfar[i] = std::max(0.0, 1.0 - shadow_eps / dist);
+          active[i] = true;
+          ++cnt.shadow_rays;
+        }
+        occluded(n, rays.projector_local, shadow_dir.data(), shadow_tfar.data(), active.data(), blocked.data());
+        for (int i = 0; i < n; ++i) {
+          if (!active[i]) continue;
+          if (blocked[i]) {
+            ++cnt.shadow;
+            continue;
+          }
+          // Kept. Noise along the camera ray (all draws happen in pixel order within the row).
+          const double z = t_hit[i];
+          const double r = z * cam_dir[i].norm();
+          const double cos_i = std::min(1.0, cos_cam[i]);
+          const double tan_i = std::sqrt(std::max(0.0, 1.0 - cos_i * cos_i)) / cos_i;
+          const double sd = mag * noise.depth_sigma * std::pow(z / spec.near, noise.depth_distance_power) *
+                            (1.0 + noise.depth_incidence_gain * tan_i);
+          const double g = rng.normal();
+          const double u_out = rng.uniform();
+          const double u_disp = rng.uniform(-1.0, 1.0);
+          double delta = sd * g;
+          if (u_out < mag * noise.outlier_fraction) {
+            delta = u_disp * noise.outlier_range;
+            ++cnt.outliers;
+          }
+          const std::size_t pix = static_cast<std::size_t>(row) * static_cast<std::size_t>(width) +
+                                  static_cast<std::size_t>(col0 + i);
+          pc[pix] = cam_dir[i] * (z * (1.0 + delta / r));
+          sigma[pix] = static_cast<float>(sd);
+          valid[pix] = 1;
+          ++cnt.points;
+        }
+      }
+    }
+  });
+
+  // Normals from the range image (as a real scanner's per-frame mesh gives them).
+  std::vector<Vec3> nc(npix, Vec3::Zero());
+  const double jump_per_pixel = tan_max / f;  // depth change per pixel and unit depth at max incidence
+  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+    for (int row = rows.begin(); row != rows.end(); ++row) {
+      for (int col = 0; col < width; ++col) {
+        const std::size_t p = static_cast<std::size_t>(row) * static_cast<std::size_t>(width) +
+                              static_cast<std::size_t>(col);
+        if (!valid[p]) continue;
+        const Vec3& P = pc[p];
+        auto neighbour = [&](int c, int r, int step) -> const Vec3* {
+          if (c < 0 || r < 0 || c >= width || r >= height) return nullptr;
+          const std::size_t q = static_cast<std::size_t>(r) * static_cast<std::size_t>(width) +
+                                static_cast<std::size_t>(c);
+          if (!valid[q]) return nullptr;
+          const double s2 = double(sigma[p]) * sigma[p] + double(sigma[q]) * sigma[q];
+          const double limit =
+              options.discontinuity_factor * (P.z() * jump_per_pixel * step + 3.0 * std::sqrt(s2));
+          return std::abs(pc[q].z() - P.z()) <= limit ? &pc[q] : nullptr;
+        };
+        auto difference = [&](int dc, int dr, Vec3& out) {
+          for (int step = std::max(1, options.normal_step); step >= 1; --step) {
+            const Vec3* a = neighbour(col + dc * step, row + dr * step, step);
+            const Vec3* b = neighbour(col - dc * step, row - dr * step, step);
+            if (a && b) {
+              out = *a - *b;
+              return true;
+            }
+            if (a) {
+              out = *a - P;
+              return true;
+            }
+            if (b) {
+              out = P - *b;
+              return true;
+            }
+          }
+          return false;
+        };
+        Vec3 dx, dy, nrm = Vec3::Zero();
+        if (difference(1, 0, dx) && difference(0, 1, dy)) nrm = dx.cross(dy);
+        if (nrm.norm() < 1e-300 || !nrm.allFinite()) nrm = -P;  // isolated pixel: face the camera
+        if (nrm.dot(P) > 0) nrm = -nrm;                         // orient toward the camera
+        nc[p] = nrm.normalized();
+      }
+    }
+  });
+
+  ScanResult res;
+  res.scan_id = scan_id;
+  res.commanded = commanded;
+  res.actual = pose_from_isometry(world_from_true);
+  res.misalignment = world_from_cmd * world_from_true.inverse();
+  auto& d = res.diagnostics;
+  d.rays_cast = npix;
+  for (const auto& c : row_counts) {
+    d.hits += c.hits;
+    d.points += c.points;
+    d.rejected_range += c.range;
+    d.rejected_incidence += c.incidence;
+    d.rejected_projector_fov += c.proj_fov;
+    d.rejected_projector_incidence += c.proj_incidence;
+    d.rejected_projector_shadow += c.shadow;
+    d.outliers += c.outliers;
+    d.shadow_rays += c.shadow_rays;
+  }
+  PointCloud& cloud = res.cloud;
+  cloud.positions.reserve(d.points);
+  cloud.normals.reserve(d.points);
+  res.pixels.reserve(d.points);
+  const Mat3 rot_cmd = world_from_cmd.linear();
+  for (std::size_t p = 0; p < npix; ++p) {
+    if (!valid[p]) continue;
+    cloud.positions.push_back(world_from_cmd * pc[p]);
+    cloud.normals.push_back(rot_cmd * nc[p]);
+    res.pixels.push_back(static_cast<std::uint32_t>(p));
+  }
+  const std::size_t m = cloud.positions.size();
+  cloud.scalars.set("scan_id", std::vector<double>(m, static_cast<double>(scan_id)));
+  cloud.scalars.set("sensor_x", std::vector<double>(m, commanded.position.x()));
+  cloud.scalars.set("sensor_y", std::vector<double>(m, commanded.position.y()));
+  cloud.scalars.set("sensor_z", std::vector<double>(m, commanded.position.z()));
+  d.seconds = clock.seconds();
+  return res;
+}
+
+VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec, VirtualScannerOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  spec.validate("scanner");
+  options.rig.validate("rig");
+  AUTOSCAN_REQUIRE(!mesh.faces.empty(), "mesh: has no triangles (an empty mesh cannot be scanned)");
+  mesh.validate("mesh");
+  AUTOSCAN_REQUIRE(mesh.vertices.size() < std::numeric_limits<unsigned>::max() &&
+                       mesh.faces.size() < std::numeric_limits<unsigned>::max() / 2,
+                   "mesh: too large for the ray tracer ({} triangles)", mesh.faces.size());
+  AUTOSCAN_REQUIRE(options.normal_step >= 1, "scanner options: normal_step must be >= 1, got {}",
+                   options.normal_step);
+  AUTOSCAN_REQUIRE(options.discontinuity_factor > 0 && std::isfinite(options.discontinuity_factor),
+                   "scanner options: discontinuity_factor must be positive");
+  AUTOSCAN_REQUIRE(options.shadow_epsilon >= 0 && options.shadow_epsilon < 1,
+                   "scanner options: shadow_epsilon must be in [0, 1)");
+  Impl& s = *impl_;
+  s.spec = spec;
+  s.options = std::move(options);
+  s.box = mesh.bounds();
+  s.shift = s.box.center();
+  s.diag = std::max(s.box.diagonal(), 1e-12);
+  s.vertices.reserve(mesh.vertices.size());
+  for (const auto& v : mesh.vertices) s.vertices.push_back(v - s.shift);
+  s.faces = mesh.faces;
+  s.normals.resize(s.faces.size());
+  for (std::size_t i = 0; i < s.faces.size(); ++i) {
+    const auto& t = s.faces[i];
+    const Vec3 n = (s.vertices[static_cast<std::size_t>(t[1])] - s.vertices[static_cast<std::size_t>(t[0])])
+                       .cross(s.vertices[static_cast<std::size_t>(t[2])] - s.vertices[static_cast<std::size_t>(t[0])]);
+    const double len = n.norm();
+    s.normals[i] = len > 0 ? Vec3(n / len) : Vec3::Zero();
+  }
+
+  const double half = std::tan(spec.fov_deg * kDegToRad / 2.0);
+  s.f = (spec.width / 2.0) / half;
+  s.cx = spec.width / 2.0;
+  s.cy = spec.height / 2.0;
+  s.tan_proj_h = std::tan(spec.projector_fov_deg * kDegToRad / 2.0);
+  s.tan_proj_v = s.tan_proj_h * spec.height / spec.width;
+  s.cos_max = std::cos(spec.max_incidence_deg * kDegToRad);
+  s.tan_max = std::tan(std::min(spec.max_incidence_deg, 89.0) * kDegToRad);
+
+  s.device.reset(rtcNewDevice(nullptr));
+  AUTOSCAN_CHECK(s.device != nullptr, "scanner: could not create the Embree device (error {})",
+                 static_cast<int>(rtcGetDeviceError(nullptr)));
+  rtcSetDeviceErrorFunction(s.device.get(), embree_error, nullptr);
+  s.scene.reset(rtcNewScene(s.device.get()));
+  rtcSetSceneFlags(s.scene.get(), RTC_SCENE_FLAG_ROBUST);  // watertight: no rays through shared edges
+  RTCGeometry geom = rtcNewGeometry(s.device.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
+  check_device(s.device.get(), "creating the geometry");
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                         3 * sizeof(float), s.vertices.size()));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                            3 * sizeof(unsigned), s.faces.size()));
+  if (!vb || !ib) {
+    rtcReleaseGeometry(geom);
+    check_device(s.device.get(), "allocating the mesh buffers");
+    throw RuntimeError("scanner: Embree could not allocate the mesh buffers");
+  }
+  for (std::size_t i = 0; i < s.vertices.size(); ++i)
+    for (int k = 0; k < 3; ++k) vb[3 * i + static_cast<std::size_t>(k)] = static_cast<float>(s.vertices[i][k]);
+  for (std::size_t i = 0; i < s.faces.size(); ++i)
+    for (int k = 0; k < 3; ++k) ib[3 * i + static_cast<std::size_t>(k)] = static_cast<unsigned>(s.faces[i][k]);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(s.scene.get(), geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(s.scene.get());
+  check_device(s.device.get(), "building the BVH");
+}
+
+VirtualScanner::~VirtualScanner() = default;
+VirtualScanner::VirtualScanner(VirtualScanner&&) noexcept = default;
+VirtualScanner& VirtualScanner::operator=(VirtualScanner&&) noexcept = default;
+
+bool VirtualScanner::inside(const Vec3& point) const {
+  AUTOSCAN_REQUIRE(point.allFinite(), "inside: the point has a non-finite coordinate");
+  const Impl& s = *impl_;
+  if (!s.box.contains(point)) return false;
+  // Fixed, "irrational" directions so that edges and vertices are rarely hit exactly.
+  static const std::array<Vec3, 5> dirs = {Vec3(0.5773, 0.5774, 0.5775).normalized(),
+                                           Vec3(-0.8017, 0.2673, 0.5345).normalized(),
+                                           Vec3(0.1361, -0.9526, 0.2722).normalized(),
+                                           Vec3(-0.3015, -0.3015, -0.9045).normalized(),
+                                           Vec3(0.7071, -0.1414, -0.6931).normalized()};
+  int odd = 0;
+  for (const auto& d : dirs) odd += s.crossings(point - s.shift, d) % 2;
+  return odd >= 4;
+}
+
+namespace {
+void check_inside(const VirtualScanner& scanner, const Pose& pose, const std::string& what) {
+  AUTOSCAN_REQUIRE(!scanner.inside(pose.position),
+                   "{}: the scanner position ({:.4g}, {:.4g}, {:.4g}) is inside the mesh", what, pose.position.x(),
+                   pose.position.y(), pose.position.z());
+}
+}  // namespace
+
+ScanResult VirtualScanner::scan(const Pose& commanded, std::uint64_t scan_id, std::uint64_t seed) const {
+  const Impl& s = *impl_;
+  s.check_pose(commanded, "pose");
+  if (s.options.check_pose_inside) check_inside(*this, commanded, "pose");
+  const Rng scan_rng = Rng(seed).stream(scan_id);
+  const Eigen::Isometry3d world_from_cmd = commanded.world_from_camera();
+  Eigen::Isometry3d world_from_true = world_from_cmd;
+  const NoiseSpec& noise = s.spec.noise;
+  // Robot pose error: rotation about a random axis through the sensor, and a translation.
+  Rng pose_rng = scan_rng.stream(0);
+  const Vec3 axis = pose_rng.unit_vector();
+  const double angle = noise.magnitude * noise.pose_rotation_sigma_deg * kDegToRad * pose_rng.normal();
+  const double ts = noise.magnitude * noise.pose_translation_sigma / std::sqrt(3.0);
+  const double tx = pose_rng.normal(), ty = pose_rng.normal(), tz = pose_rng.normal();
+  if (noise.magnitude > 0) {
+    world_from_true.linear() = Eigen::AngleAxisd(angle, axis).toRotationMatrix() * world_from_cmd.linear();
+    world_from_true.translation() = world_from_cmd.translation() + ts * Vec3(tx, ty, tz);
+  }
+  return s.run(commanded, world_from_true, scan_id, scan_rng);
+}
+
+ScanResult VirtualScanner::scan_from(const Pose& commanded, const Pose& actual, std::uint64_t scan_id,
+                                     std::uint64_t seed) const {
+  const Impl& s = *impl_;
+  s.check_pose(commanded, "pose");
+  actual.validate("actual pose");
+  if (s.options.check_pose_inside) {
+    check_inside(*this, commanded, "pose");
+    check_inside(*this, actual, "actual pose");
+  }
+  return s.run(commanded, actual.world_from_camera(), scan_id, Rng(seed).stream(scan_id));
+}
+
+const ScannerSpec& VirtualScanner::spec() const { return impl_->spec; }
+const VirtualScannerOptions& VirtualScanner::options() const { return impl_->options; }
+const AABB& VirtualScanner::bounds() const { return impl_->box; }
+std::size_t VirtualScanner::triangle_count() const { return impl_->faces.size(); }
+
+ScanResult scan_mesh(const TriangleMesh& mesh, const ScannerSpec& spec, const Pose& pose, std::uint64_t scan_id,
+                     std::uint64_t seed, const VirtualScannerOptions& options) {
+  return VirtualScanner(mesh, spec, options).scan(pose, scan_id, seed);
+}
+
+}  // namespace autoscan::scanner

@@ -1,0 +1,62 @@
+#include "autoscan/session/reconstruct.hpp"
+
+#include "autoscan/confidence/confidence.hpp"
+#include "autoscan/consolidate/consolidate.hpp"
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/poisson/poisson.hpp"
+
+namespace autoscan::session {
+
+Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& options,
+                                 const ProgressCallback& progress) {
+  AUTOSCAN_REQUIRE(!raw.empty(), "reconstruction: the model has no points");
+  Reconstruction r;
+  Stopwatch clock;
+  // §4.1: outliers, thinning, WLOP, normals oriented toward the sensors.
+  consolidate::ConsolidateResult cons = consolidate::consolidate(raw, options.consolidate, progress);
+  r.seconds["consolidate"] = clock.seconds();
+  r.consolidated = std::move(cons.cloud);
+  r.diagnostics["consolidate"] = {{"points_in", cons.points_in},
+                                  {"points_out", cons.points_out},
+                                  {"outliers_removed", cons.outliers.removed},
+                                  {"thinning_removed", cons.thinning.removed},
+                                  {"wlop", cons.wlop.applied},
+                                  {"normals", consolidate::to_string(cons.normals.orientation)}};
+
+  // §4.1: screened Poisson, the evaluable field and its iso-surface.
+  clock.reset();
+  poisson::PoissonOptions po = options.poisson;
+  po.extract_mesh = true;
+  poisson::PoissonResult pr = poisson::reconstruct(r.consolidated, po, progress);
+  r.seconds["poisson"] = clock.seconds();
+  AUTOSCAN_CHECK(pr.field != nullptr, "reconstruction: the Poisson stage returned no field");
+  AUTOSCAN_CHECK(!pr.mesh.empty(), "reconstruction: the Poisson iso-surface is empty");
+  r.field = pr.field;
+  r.reference_gradient = pr.field->reference_gradient();
+  r.diagnostics["poisson"] = {{"depth", pr.field->depth()},
+                              {"finest_depth", pr.diagnostics.finest_depth},
+                              {"points", pr.diagnostics.points},
+                              {"vertices", pr.mesh.vertices.size()},
+                              {"faces", pr.mesh.faces.size()},
+                              {"reference_gradient", r.reference_gradient}};
+
+  // §4.2: iso-points, f_g (Eq. 1), f_s (Eq. 2) against the raw points, f (Eq. 3).
+  clock.reset();
+  confidence::ConfidenceOptions co = options.confidence;
+  co.progress = progress;
+  confidence::ConfidenceResult cr = confidence::assess_confidence(*pr.field, pr.mesh, raw, r.reference_gradient, co);
+  r.seconds["confidence"] = clock.seconds();
+  r.mesh = std::move(cr.mesh);
+  r.iso_points = std::move(cr.iso_points);
+  r.mean_f = cr.mean_f;
+  r.mean_f_g = cr.mean_f_g;
+  r.mean_f_s = cr.mean_f_s;
+  r.diagnostics["confidence"] = {{"iso_points", r.iso_points.size()},
+                                 {"spacing", cr.spacing},
+                                 {"reference_smoothness", cr.reference_smoothness},
+                                 {"max_projection_residual", cr.max_projection_residual}};
+  return r;
+}
+
+}  // namespace autoscan::session

@@ -1,0 +1,720 @@
+#include "autoscan/session/session.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <regex>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/registration/nearest.hpp"
+
+namespace autoscan::session {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr const char* kFormat = "autoscan-session";
+constexpr int kVersion = 1;
+
+// Random streams derived from the session seed (independent of restarts and of each other).
+constexpr std::uint64_t kInsertionStream = 0x45713;  // Eq. 6, one sub-stream per scan id
+constexpr std::uint64_t kPlannerStream = 0x9a11e7;   // planner, one sub-stream per iteration
+
+std::string scan_stem(int id) { return fmt::format("scan_{:04d}", id); }
+std::string iter_name(int k) { return fmt::format("iter_{:03d}", k); }
+
+json matrix_json(const Eigen::Isometry3d& T) {
+  json m = json::array();
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) m.push_back(T.matrix()(i, j));
+  return m;
+}
+
+Eigen::Isometry3d matrix_from_json(const json& m, const std::string& what) {
+  AUTOSCAN_REQUIRE(m.is_array() && m.size() == 16, "{}: expected 16 numbers (a 4x4 row-major matrix)", what);
+  Eigen::Matrix4d M;
+  for (int i = 0; i < 16; ++i) {
+    AUTOSCAN_REQUIRE(m[i].is_number(), "{}: entry {} is not a number", what, i);
+    M(i / 4, i % 4) = m[i].get<double>();
+  }
+  AUTOSCAN_REQUIRE(M.allFinite(), "{}: non-finite entry", what);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.matrix() = M;
+  return T;
+}
+
+// Applies a rigid correction to a scan: positions, normals and the sensor position scalars.
+void apply_transform(PointCloud& c, const Eigen::Isometry3d& T) {
+  if (T.isApprox(Eigen::Isometry3d::Identity(), 0.0)) return;
+  for (auto& p : c.positions) p = T * p;
+  for (auto& n : c.normals) n = T.linear() * n;
+  auto* sx = c.scalars.find("sensor_x");
+  auto* sy = c.scalars.find("sensor_y");
+  auto* sz = c.scalars.find("sensor_z");
+  if (sx && sy && sz) {
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const Vec3 s = T * Vec3((*sx)[i], (*sy)[i], (*sz)[i]);
+      (*sx)[i] = s.x();
+      (*sy)[i] = s.y();
+      (*sz)[i] = s.z();
+    }
+  }
+}
+
+// The part of a scan the model keeps: positions, scan_id and the sensor position.
+PointCloud model_part(const PointCloud& registered, const std::vector<char>& keep) {
+  PointCloud out;
+  std::vector<double> id, sx, sy, sz;
+  const auto& cid = registered.scalars.get("scan_id");
+  const auto& csx = registered.scalars.get("sensor_x");
+  const auto& csy = registered.scalars.get("sensor_y");
+  const auto& csz = registered.scalars.get("sensor_z");
+  for (std::size_t i = 0; i < registered.size(); ++i) {
+    if (!keep[i]) continue;
+    out.positions.push_back(registered.positions[i]);
+    id.push_back(cid[i]);
+    sx.push_back(csx[i]);
+    sy.push_back(csy[i]);
+    sz.push_back(csz[i]);
+  }
+  out.scalars.set("scan_id", std::move(id));
+  out.scalars.set("sensor_x", std::move(sx));
+  out.scalars.set("sensor_y", std::move(sy));
+  out.scalars.set("sensor_z", std::move(sz));
+  return out;
+}
+
+io::WriteOptions exact_ply() {
+  io::WriteOptions w;
+  w.double_coordinates = true;
+  w.double_scalars = true;
+  return w;
+}
+
+json pose_or_null(const std::optional<Pose>& p) { return p ? to_json(*p) : json(nullptr); }
+
+// Removes temporary files a crash may have left (write_file_atomic's ".NAME.tmp.PID.N").
+void remove_temporaries(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (!name.empty() && name[0] == '.' && name.find(".tmp.") != std::string::npos && e.is_regular_file(ec)) {
+      fs::remove(e.path(), ec);
+      log::warn("{}: removed a temporary file left by an interrupted write", e.path().string());
+    }
+  }
+}
+
+}  // namespace
+
+// ---- free functions --------------------------------------------------------------------------------
+
+std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& iso_points,
+                                           const std::vector<double>& iso_f, double rho, Rng& rng) {
+  AUTOSCAN_REQUIRE(iso_f.size() == iso_points.size(), "selective insertion: {} confidence values for {} iso-points",
+                   iso_f.size(), iso_points.size());
+  AUTOSCAN_REQUIRE(std::isfinite(rho) && rho >= 0.0, "selective insertion: rho must be >= 0 (got {})", rho);
+  std::vector<char> keep(points.size(), 1);
+  if (iso_points.empty() || points.empty()) return keep;
+  const registration::NearestNeighbors nn(iso_points);
+  std::vector<std::size_t> idx(points.size());
+  nn.nearest(points, idx, {});
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double f = std::clamp(iso_f[idx[i]], 0.0, 1.0);
+    const double p = std::pow(1.0 - f, rho);  // Eq. 6: P(p_i) = (1 − f(s_k))^ρ
+    keep[i] = rng.uniform() < p ? 1 : 0;
+  }
+  return keep;
+}
+
+bool confidence_converged(double previous_mean_f, double mean_f, double threshold) {
+  return std::abs(mean_f - previous_mean_f) < threshold;
+}
+
+json to_json(const ScanRecord& r) {
+  json j = {{"id", r.id},
+            {"file", "scans/" + scan_stem(r.id) + ".ply"},
+            {"points", r.points},
+            {"inserted", r.inserted},
+            {"model_iteration", r.model_iteration},
+            {"pose", to_json(r.reported_pose)},
+            {"registered_pose", to_json(r.registered_pose)},
+            {"correction", matrix_json(r.correction)},
+            {"registration", r.registration ? registration::to_json(*r.registration) : json(nullptr)},
+            {"seconds", {{"registration", r.seconds_registration}, {"insertion", r.seconds_insertion}}}};
+  return j;
+}
+
+json to_json(const IterationRecord& r) {
+  json secs = json::object();
+  for (const auto& [k, v] : r.seconds) secs[k] = v;
+  return {{"index", r.index},
+          {"scans", r.scans},
+          {"points", r.raw_points},
+          {"consolidated_points", r.consolidated_points},
+          {"mesh_vertices", r.mesh_vertices},
+          {"iso_points", r.iso_points},
+          {"views", r.views},
+          {"mean_f", r.mean_f},
+          {"mean_f_g", r.mean_f_g},
+          {"mean_f_s", r.mean_f_s},
+          {"delta_mean_f", r.delta_mean_f},
+          {"path_length", r.path_length},
+          {"seconds", secs},
+          {"planner", r.planner_diagnostics},
+          {"truth", r.truth},
+          {"stopped", r.stopped},
+          {"stop_reason", r.stop_reason.empty() ? json(nullptr) : json(r.stop_reason)}};
+}
+
+json to_json(const SessionStatus& s) {
+  return {{"directory", s.directory.string()},
+          {"planner", s.planner},
+          {"scans", s.scans},
+          {"model_points", s.model_points},
+          {"iterations", s.iterations},
+          {"views_planned", s.views_planned},
+          {"pending_scans", s.pending_scans},
+          {"stopped", s.stopped},
+          {"stop_reason", s.stop_reason.empty() ? json(nullptr) : json(s.stop_reason)},
+          {"last_mean_f", s.last_mean_f ? json(*s.last_mean_f) : json(nullptr)},
+          {"current_pose", pose_or_null(s.current_pose)}};
+}
+
+namespace {
+
+ScanRecord scan_from_json(const json& j, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object", what);
+  ScanRecord r;
+  try {
+    r.id = j.at("id").get<int>();
+    r.points = j.at("points").get<std::size_t>();
+    r.inserted = j.at("inserted").get<std::size_t>();
+    r.model_iteration = j.at("model_iteration").get<int>();
+    r.seconds_registration = j.at("seconds").at("registration").get<double>();
+    r.seconds_insertion = j.at("seconds").at("insertion").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: {}", what, e.what()));
+  }
+  r.reported_pose = pose_from_json(j.at("pose"), what + ".pose");
+  r.registered_pose = pose_from_json(j.at("registered_pose"), what + ".registered_pose");
+  r.correction = matrix_from_json(j.at("correction"), what + ".correction");
+  if (j.contains("registration") && j.at("registration").is_object()) {
+    const auto& g = j.at("registration");
+    registration::IcpResult ir;
+    ir.method = g.value("method", "");
+    ir.iterations = g.value("iterations", 0);
+    ir.converged = g.value("converged", false);
+    ir.degenerate = g.value("degenerate", false);
+    ir.uniform_weights = g.value("uniform_weights", false);
+    ir.rms_before = g.value("rms_before", 0.0);
+    ir.rms_after = g.value("rms_after", 0.0);
+    ir.inlier_fraction = g.value("inlier_fraction", 0.0);
+    ir.correspondences = g.value("correspondences", std::size_t{0});
+    ir.source_points_used = g.value("source_points_used", std::size_t{0});
+    ir.correction_translation = g.value("correction_translation", 0.0);
+    ir.correction_rotation_deg = g.value("correction_rotation_deg", 0.0);
+    ir.max_correspondence_distance = g.value("max_correspondence_distance", 0.0);
+    ir.seconds = g.value("seconds", 0.0);
+    ir.correction = matrix_from_json(g.at("correction"), what + ".registration.correction");
+    ir.transform = ir.correction;
+    r.registration = ir;
+  }
+  return r;
+}
+
+IterationRecord iteration_from_json(const json& j, const std::string& what) {
+  IterationRecord r;
+  try {
+    r.index = j.at("index").get<int>();
+    r.scans = j.at("scans").get<std::vector<int>>();
+    r.raw_points = j.at("points").get<std::size_t>();
+    r.consolidated_points = j.at("consolidated_points").get<std::size_t>();
+    r.mesh_vertices = j.at("mesh_vertices").get<std::size_t>();
+    r.iso_points = j.at("iso_points").get<std::size_t>();
+    r.views = j.at("views").get<int>();
+    r.mean_f = j.at("mean_f").get<double>();
+    r.mean_f_g = j.at("mean_f_g").get<double>();
+    r.mean_f_s = j.at("mean_f_s").get<double>();
+    r.delta_mean_f = j.at("delta_mean_f").get<double>();
+    r.path_length = j.at("path_length").get<double>();
+    for (const auto& [k, v] : j.at("seconds").items()) r.seconds[k] = v.get<double>();
+    r.planner_diagnostics = j.at("planner");
+    r.truth = j.at("truth");
+    r.stopped = j.at("stopped").get<bool>();
+    r.stop_reason = j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: {}", what, e.what()));
+  }
+  return r;
+}
+
+}  // namespace
+
+// ---- Session ---------------------------------------------------------------------------------------
+
+struct Session::Impl {
+  fs::path dir;
+  int lock_fd = -1;
+  ScannerSpec scanner;
+  Rig rig;
+  SessionOptions options;
+  std::unique_ptr<planners::Planner> planner;
+  Reconstructor reconstructor = reconstruct_model;
+  ProgressCallback progress;
+
+  std::vector<ScanRecord> scans;
+  std::vector<IterationRecord> iterations;
+  PointCloud model;                  // every inserted point, registered
+  std::size_t model_size_at_last_iteration = 0;
+  std::optional<Pose> current_pose;
+  int views_planned = 0;
+  bool stopped = false;
+  std::string stop_reason;
+
+  // The registration target and Eq. 6's confidence, from the last iteration (reloaded on open).
+  PointCloud target;                 // consolidated points with normals
+  std::vector<double> target_weight;  // f of the iso-point nearest to each target point
+  std::vector<Vec3> iso_positions;
+  std::vector<double> iso_f;
+
+  ~Impl() {
+    if (lock_fd >= 0) ::close(lock_fd);
+  }
+
+  fs::path session_json() const { return dir / "session.json"; }
+
+  void lock() {
+    const fs::path p = dir / ".lock";
+    lock_fd = ::open(p.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (lock_fd < 0) throw RuntimeError(fmt::format("{}: cannot create the lock file", p.string()));
+    if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
+      throw InputError(fmt::format("{}: the session is in use by another process", dir.string()));
+  }
+
+  int pending_from() const {
+    // First scan id not yet used by an iteration.
+    int n = 0;
+    for (const auto& it : iterations)
+      for (int s : it.scans) n = std::max(n, s + 1);
+    return n;
+  }
+
+  json to_json_all() const {
+    json scans_j = json::array();
+    for (const auto& s : scans) scans_j.push_back(to_json(s));
+    json iters_j = json::array();
+    for (const auto& it : iterations) iters_j.push_back(to_json(it));
+    return {{"format", kFormat},
+            {"version", kVersion},
+            {"scanner", to_json(scanner)},
+            {"rig", to_json(rig)},
+            {"seed", options.seed},
+            {"planner", options.planner},
+            {"params", to_json(options)},
+            {"current_pose", pose_or_null(current_pose)},
+            {"views_planned", views_planned},
+            {"model_points", model.size()},
+            {"scans", scans_j},
+            {"iterations", iters_j},
+            {"stopped", stopped},
+            {"stop_reason", stop_reason.empty() ? json(nullptr) : json(stop_reason)}};
+  }
+
+  void persist() const { write_text_atomic(session_json(), to_json_all().dump(1) + "\n"); }
+
+  void make_planner_object() {
+    planners::PlannerOptions po;
+    po.nbv = options.nbv;
+    po.params = options.planner_params;
+    // Forward to the session's current callback (set_progress may change it later).
+    po.progress = [this](std::string_view stage, double f) { return progress ? progress(stage, f) : true; };
+    planner = planners::make_planner(options.planner, po);
+  }
+
+  bool has_model() const { return !iterations.empty() && !target.empty(); }
+
+  // Sets the registration target and Eq. 6's look-up from a reconstruction.
+  void set_target(const PointCloud& consolidated, const PointCloud& iso) {
+    target = PointCloud{};
+    target.positions = consolidated.positions;
+    target.normals = consolidated.normals;
+    iso_positions = iso.positions;
+    const auto* f = iso.scalars.find("f");
+    iso_f = f ? *f : std::vector<double>(iso.size(), 0.0);
+    target_weight.assign(target.size(), 1.0);
+    if (!iso_positions.empty() && !target.empty()) {
+      const registration::NearestNeighbors nn(iso_positions);
+      std::vector<std::size_t> idx(target.size());
+      nn.nearest(target.positions, idx, {});
+      for (std::size_t i = 0; i < target.size(); ++i) target_weight[i] = std::clamp(iso_f[idx[i]], 0.0, 1.0);
+    }
+  }
+
+  // Registers (when a model exists) and selects the points of a scan; returns the registered scan.
+  PointCloud register_and_select(PointCloud& scan, ScanRecord& rec, std::vector<char>& keep) {
+    Stopwatch clock;
+    if (options.register_scans && has_model() && !scan.empty()) {
+      const auto r = registration::icp(scan, target, target_weight, options.icp);
+      rec.registration = r;
+      if (!r.degenerate) rec.correction = r.correction;
+      else
+        log::warn("scan {}: registration found too few correspondences; the reported pose is kept", rec.id);
+    }
+    rec.seconds_registration = clock.seconds();
+    rec.registered_pose = rec.reported_pose.transformed(rec.correction);
+    PointCloud registered = scan;
+    apply_transform(registered, rec.correction);
+    clock.reset();
+    if (options.selective_insertion && has_model()) {
+      Rng rng = Rng(options.seed).stream(kInsertionStream).stream(static_cast<std::uint64_t>(rec.id));
+      keep = selective_insertion_mask(registered.positions, iso_positions, iso_f, options.rho, rng);
+    } else {
+      keep.assign(registered.size(), 1);
+    }
+    rec.inserted = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
+    rec.seconds_insertion = clock.seconds();
+    return registered;
+  }
+};
+
+Session::Session(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Session::Session(Session&&) noexcept = default;
+Session& Session::operator=(Session&&) noexcept = default;
+Session::~Session() = default;
+
+Session Session::create(const fs::path& dir, const ScannerSpec& scanner, const Rig& rig,
+                        const SessionOptions& options) {
+  scanner.validate("scanner");
+  rig.validate("rig");
+  options.validate();
+  std::error_code ec;
+  AUTOSCAN_REQUIRE(!dir.empty(), "session: no directory given");
+  AUTOSCAN_REQUIRE(!fs::exists(dir / "session.json", ec), "{}: already holds a session (use open to resume)",
+                   dir.string());
+  AUTOSCAN_REQUIRE(!fs::exists(dir, ec) || fs::is_directory(dir, ec), "{}: exists and is not a directory",
+                   dir.string());
+  fs::create_directories(dir / "scans", ec);
+  if (ec) throw RuntimeError(fmt::format("{}: cannot create the session directory: {}", dir.string(), ec.message()));
+  fs::create_directories(dir / "iterations", ec);
+  auto impl = std::make_unique<Impl>();
+  impl->dir = dir;
+  impl->lock();
+  impl->scanner = scanner;
+  impl->rig = rig;
+  impl->options = options;
+  impl->make_planner_object();  // validates the planner name and its options before anything is written
+  impl->persist();
+  return Session(std::move(impl));
+}
+
+Session Session::open(const fs::path& dir) {
+  std::error_code ec;
+  AUTOSCAN_REQUIRE(fs::is_directory(dir, ec), "{}: no such session directory", dir.string());
+  AUTOSCAN_REQUIRE(fs::exists(dir / "session.json", ec), "{}: not a session directory (no session.json)",
+                   dir.string());
+  auto impl = std::make_unique<Impl>();
+  impl->dir = dir;
+  impl->lock();
+  const std::string where = (dir / "session.json").string();
+  json j;
+  try {
+    j = json::parse(read_text_file(dir / "session.json"));
+  } catch (const json::parse_error& e) {
+    throw InputError(fmt::format("{}: not valid JSON: {}", where, e.what()));
+  }
+  AUTOSCAN_REQUIRE(j.is_object() && j.value("format", "") == kFormat, "{}: not an autoscan session file", where);
+  AUTOSCAN_REQUIRE(j.value("version", 0) == kVersion, "{}: unsupported version {}", where, j.value("version", 0));
+  for (const char* key : {"scanner", "rig", "params", "scans", "iterations"})
+    AUTOSCAN_REQUIRE(j.contains(key), "{}: missing '{}'", where, key);
+  impl->scanner = scanner_from_json(j.at("scanner"), where + ": scanner");
+  impl->rig = rig_from_json(j.at("rig"), where + ": rig");
+  impl->options = session_options_from_json(j.at("params"), {}, where + ": params");
+  impl->options.validate();
+  if (j.contains("current_pose") && !j.at("current_pose").is_null())
+    impl->current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
+  impl->views_planned = j.value("views_planned", 0);
+  impl->stopped = j.value("stopped", false);
+  impl->stop_reason = j.contains("stop_reason") && j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
+  for (std::size_t i = 0; i < j.at("iterations").size(); ++i)
+    impl->iterations.push_back(iteration_from_json(j.at("iterations")[i], fmt::format("{}: iterations[{}]", where, i)));
+  impl->make_planner_object();
+
+  // Tidy up after a crash: temporary files, then scan files that no session.json references.
+  remove_temporaries(dir);
+  remove_temporaries(dir / "scans");
+  for (const auto& it : impl->iterations) remove_temporaries(dir / "iterations" / iter_name(it.index));
+  const std::size_t referenced = j.at("scans").size();
+  if (fs::is_directory(dir / "scans", ec)) {
+    static const std::regex pattern(R"(scan_(\d{4,})\.(ply|json))");
+    std::vector<fs::path> orphans;
+    for (const auto& e : fs::directory_iterator(dir / "scans", ec)) {
+      std::smatch m;
+      const std::string name = e.path().filename().string();
+      if (std::regex_match(name, m, pattern) && std::stoul(m[1].str()) >= referenced) orphans.push_back(e.path());
+    }
+    std::sort(orphans.begin(), orphans.end());
+    if (!orphans.empty()) fs::create_directories(dir / "scans" / "orphaned", ec);
+    for (const auto& p : orphans) {
+      fs::path to;
+      for (int k = 0;; ++k) {
+        to = dir / "scans" / "orphaned" / fmt::format("{}.{}", p.filename().string(), k);
+        if (!fs::exists(to, ec)) break;
+      }
+      fs::rename(p, to, ec);
+      log::warn("{}: scan file not acknowledged before an interruption; moved to {}", p.string(), to.string());
+    }
+  }
+
+  // Rebuild the model from the acknowledged scans, exactly as add_scan built it.
+  for (std::size_t i = 0; i < referenced; ++i) {
+    const std::string w = fmt::format("{}: scans[{}]", where, i);
+    ScanRecord rec = scan_from_json(j.at("scans")[i], w);
+    AUTOSCAN_REQUIRE(rec.id == static_cast<int>(i), "{}: scan id {} out of order", w, rec.id);
+    const fs::path file = dir / "scans" / (scan_stem(rec.id) + ".ply");
+    PointCloud scan;
+    if (rec.points > 0) {
+      AUTOSCAN_REQUIRE(fs::exists(file, ec), "{}: acknowledged scan file is missing", file.string());
+      scan = io::read_point_cloud(file);
+    }
+    AUTOSCAN_REQUIRE(scan.size() == rec.points, "{}: holds {} points, session.json says {}", file.string(),
+                     scan.size(), rec.points);
+    std::vector<char> keep(scan.size(), 1);
+    if (const auto* ins = scan.scalars.find("inserted")) {
+      for (std::size_t k = 0; k < scan.size(); ++k) keep[k] = (*ins)[k] != 0.0 ? 1 : 0;
+      scan.scalars.erase("inserted");
+    }
+    AUTOSCAN_REQUIRE(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1)) == rec.inserted,
+                     "{}: insertion flags disagree with session.json", file.string());
+    apply_transform(scan, rec.correction);
+    if (impl->planner) impl->planner->observe_scan(scan, rec.registered_pose);
+    if (!scan.empty()) impl->model.append(model_part(scan, keep));
+    impl->scans.push_back(std::move(rec));
+    // Model size when each iteration ran (for the "new" flags of the next cloud.ply).
+  }
+  {
+    // Points inserted before the last iteration: the scans it (and earlier ones) used.
+    const int used = impl->pending_from();
+    std::size_t n = 0;
+    for (int i = 0; i < used && i < static_cast<int>(impl->scans.size()); ++i) n += impl->scans[i].inserted;
+    impl->model_size_at_last_iteration = n;
+  }
+  if (!impl->iterations.empty()) {
+    const fs::path idir = dir / "iterations" / iter_name(impl->iterations.back().index);
+    PointCloud consolidated = io::read_point_cloud(idir / "consolidated.ply");
+    PointCloud iso = io::read_point_cloud(idir / "iso.ply");
+    impl->set_target(consolidated, iso);
+  }
+  return Session(std::move(impl));
+}
+
+ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pose) {
+  auto& m = *impl_;
+  reported_pose.validate("scan pose");
+  scan_in.validate("scan");
+  ScanRecord rec;
+  rec.id = static_cast<int>(m.scans.size());
+  rec.points = scan_in.size();
+  rec.reported_pose = reported_pose;
+  rec.model_iteration = m.iterations.empty() ? -1 : m.iterations.back().index;
+
+  PointCloud scan = scan_in;
+  scan.scalars.erase("inserted");
+  scan.scalars.set("scan_id", std::vector<double>(scan.size(), static_cast<double>(rec.id)));
+  if (!(scan.scalars.has("sensor_x") && scan.scalars.has("sensor_y") && scan.scalars.has("sensor_z"))) {
+    const Vec3 s = reported_pose.position;
+    scan.scalars.set("sensor_x", std::vector<double>(scan.size(), s.x()));
+    scan.scalars.set("sensor_y", std::vector<double>(scan.size(), s.y()));
+    scan.scalars.set("sensor_z", std::vector<double>(scan.size(), s.z()));
+  }
+  std::vector<char> keep;
+  PointCloud registered = m.register_and_select(scan, rec, keep);
+
+  // Persist: the scan file (as received, with the insertion flags), its sidecar, then session.json.
+  // Until session.json names it the scan is not acknowledged; open() sets such files aside.
+  const std::string stem = scan_stem(rec.id);
+  if (!scan.empty()) {
+    PointCloud stored = scan;
+    std::vector<double> ins(keep.begin(), keep.end());
+    stored.scalars.set("inserted", std::move(ins));
+    io::write_point_cloud(m.dir / "scans" / (stem + ".ply"), stored, exact_ply());
+  }
+  write_text_atomic(m.dir / "scans" / (stem + ".json"), to_json(rec).dump(1) + "\n");
+  if (m.planner) m.planner->observe_scan(registered, rec.registered_pose);
+  if (!registered.empty()) m.model.append(model_part(registered, keep));
+  m.scans.push_back(rec);
+  m.current_pose = rec.registered_pose;
+  m.persist();
+  return rec;
+}
+
+NextViews Session::next_views() {
+  AUTOSCAN_REQUIRE(impl_->current_pose.has_value(), "next_views: no current pose known (give one, or add a scan)");
+  return next_views(*impl_->current_pose);
+}
+
+NextViews Session::next_views(const Pose& current) {
+  auto& m = *impl_;
+  current.validate("current pose");
+  NextViews ans;
+  if (m.stopped) {
+    ans.stopped = true;
+    ans.reason = m.stop_reason;
+    ans.iteration = m.iterations.empty() ? -1 : m.iterations.back().index;
+    if (ans.iteration >= 0) ans.directory = m.dir / "iterations" / iter_name(ans.iteration);
+    return ans;
+  }
+  AUTOSCAN_REQUIRE(!m.scans.empty(), "next_views: the session has no scan yet (add the blind scans first)");
+  AUTOSCAN_REQUIRE(!m.model.empty(), "next_views: the scans hold no points");
+  m.current_pose = current;
+  const int k = static_cast<int>(m.iterations.size());
+  IterationRecord it;
+  it.index = k;
+  for (int s = m.pending_from(); s < static_cast<int>(m.scans.size()); ++s) it.scans.push_back(s);
+  for (int s : it.scans) {
+    it.seconds["registration"] += m.scans[s].seconds_registration;
+    it.seconds["insertion"] += m.scans[s].seconds_insertion;
+  }
+
+  auto rec = std::make_shared<Reconstruction>(m.reconstructor(m.model, m.options, m.progress));
+  for (const auto& [stage, s] : rec->seconds) it.seconds[stage] = s;
+  it.raw_points = m.model.size();
+  it.consolidated_points = rec->consolidated.size();
+  it.mesh_vertices = rec->mesh.vertices.size();
+  it.iso_points = rec->iso_points.size();
+  it.mean_f = rec->mean_f;
+  it.mean_f_g = rec->mean_f_g;
+  it.mean_f_s = rec->mean_f_s;
+  if (k > 0) it.delta_mean_f = rec->mean_f - m.iterations.back().mean_f;
+
+  // The stop rule (§5.3), then the budgets.
+  if (k > 0 && confidence_converged(m.iterations.back().mean_f, rec->mean_f, m.options.stop_threshold))
+    it.stop_reason = "converged";
+  else if (k + 1 >= m.options.max_iterations)
+    it.stop_reason = "max_iterations";
+  else if (m.views_planned >= m.options.max_views)
+    it.stop_reason = "max_views";
+
+  planners::PlanOutput plan;
+  if (it.stop_reason.empty()) {
+    Stopwatch clock;
+    planners::ModelState state;
+    state.iteration = k;
+    state.raw = m.model;
+    state.consolidated = rec->consolidated;
+    state.field = rec->field;
+    state.reference_gradient = rec->reference_gradient;
+    state.mesh = rec->mesh;
+    state.iso_points = rec->iso_points;
+    state.mean_f = rec->mean_f;
+    state.scanner = m.scanner;
+    state.rig = m.rig;
+    state.acquired_bounds = m.model.bounds();
+    for (const auto& s : m.scans) state.scan_poses.push_back(s.registered_pose);
+    Rng rng = Rng(m.options.seed).stream(kPlannerStream).stream(static_cast<std::uint64_t>(k));
+    plan = m.planner->plan(state, current, rng);
+    const auto budget = static_cast<std::size_t>(m.options.max_views - m.views_planned);
+    if (plan.views.size() > budget) {
+      plan.views.resize(budget);
+      plan.path_length = planners::path_length(m.rig, current, plan.views);
+    }
+    it.planner_diagnostics = plan.diagnostics;
+    it.seconds["plan"] = clock.seconds();
+    if (plan.views.empty()) it.stop_reason = "no_views";
+  }
+  it.views = static_cast<int>(plan.views.size());
+  it.path_length = plan.path_length;
+  it.stopped = !it.stop_reason.empty();
+
+  // Artefacts first (iterations/iter_KKK/), session.json last: an interrupted iteration is simply
+  // recomputed after open().
+  Stopwatch wclock;
+  const fs::path idir = m.dir / "iterations" / iter_name(k);
+  std::error_code ec;
+  fs::create_directories(idir, ec);
+  if (ec) throw RuntimeError(fmt::format("{}: cannot create: {}", idir.string(), ec.message()));
+  {
+    PointCloud cloud = m.model;
+    std::vector<double> fresh(cloud.size(), 0.0);
+    for (std::size_t i = m.model_size_at_last_iteration; i < cloud.size(); ++i) fresh[i] = 1.0;
+    cloud.scalars.set("new", std::move(fresh));
+    io::write_point_cloud(idir / "cloud.ply", cloud);
+  }
+  io::write_point_cloud(idir / "consolidated.ply", rec->consolidated, exact_ply());
+  if (!rec->mesh.empty()) io::write_mesh(idir / "mesh.ply", rec->mesh);
+  io::write_point_cloud(idir / "iso.ply", rec->iso_points, exact_ply());
+  json extra = {{"iteration", k}, {"planner", m.options.planner}, {"stopped", it.stopped},
+                {"stop_reason", it.stopped ? json(it.stop_reason) : json(nullptr)}, {"mean_f", it.mean_f}};
+  write_text_atomic(idir / "views.json", planners::views_to_json(plan, extra).dump(1) + "\n");
+  if (plan.write_artifacts) plan.write_artifacts(idir);
+  it.seconds["write"] = wclock.seconds();
+
+  m.views_planned += it.views;
+  m.stopped = it.stopped;
+  m.stop_reason = it.stop_reason;
+  m.iterations.push_back(it);
+  m.model_size_at_last_iteration = m.model.size();
+  m.set_target(rec->consolidated, rec->iso_points);
+  m.persist();
+
+  ans.views = std::move(plan.views);
+  ans.path_length = plan.path_length;
+  ans.stopped = it.stopped;
+  ans.reason = it.stop_reason;
+  ans.iteration = k;
+  ans.directory = idir;
+  ans.reconstruction = std::move(rec);
+  return ans;
+}
+
+void Session::attach_truth(int index, const json& truth) {
+  auto& m = *impl_;
+  AUTOSCAN_REQUIRE(index >= 0 && index < static_cast<int>(m.iterations.size()),
+                   "attach_truth: no iteration {} (the session has {})", index, m.iterations.size());
+  m.iterations[static_cast<std::size_t>(index)].truth = truth;
+  m.persist();
+}
+
+SessionStatus Session::status() const {
+  const auto& m = *impl_;
+  SessionStatus s;
+  s.directory = m.dir;
+  s.planner = m.options.planner;
+  s.scans = static_cast<int>(m.scans.size());
+  s.model_points = m.model.size();
+  s.iterations = static_cast<int>(m.iterations.size());
+  s.views_planned = m.views_planned;
+  s.stopped = m.stopped;
+  s.stop_reason = m.stop_reason;
+  if (!m.iterations.empty()) s.last_mean_f = m.iterations.back().mean_f;
+  s.current_pose = m.current_pose;
+  s.pending_scans = static_cast<int>(m.scans.size()) - m.pending_from();
+  return s;
+}
+
+const fs::path& Session::directory() const { return impl_->dir; }
+const SessionOptions& Session::options() const { return impl_->options; }
+const ScannerSpec& Session::scanner() const { return impl_->scanner; }
+const Rig& Session::rig() const { return impl_->rig; }
+const std::vector<ScanRecord>& Session::scans() const { return impl_->scans; }
+const std::vector<IterationRecord>& Session::iterations() const { return impl_->iterations; }
+const PointCloud& Session::model_points() const { return impl_->model; }
+void Session::set_reconstructor(Reconstructor r) {
+  AUTOSCAN_REQUIRE(static_cast<bool>(r), "set_reconstructor: empty reconstructor");
+  impl_->reconstructor = std::move(r);
+}
+void Session::set_progress(ProgressCallback cb) {
+  impl_->progress = std::move(cb);
+}
+
+}  // namespace autoscan::session

@@ -1,0 +1,181 @@
+#pragma once
+// The autoscanning loop as a step-by-step API a real robot can drive (paper §3, §5.3):
+//
+//   auto s = Session::create(dir, scanner, rig, options);   // or Session::open(dir) to resume
+//   for (scan, pose : blind scans) s.add_scan(scan, pose);  // world frame of the reported pose
+//   while (true) {
+//     auto step = s.next_views(current_pose);              // consolidate → Poisson → confidence → plan
+//     if (step.stopped) break;                             // |Δ mean f| < 0.005, or a budget spent
+//     for (view : step.views) s.add_scan(robot.scan(view), robot.reported_pose());
+//   }
+//
+// add_scan registers each scan to the model with the confidence-weighted ICP (§5.3, registration/
+// icp.hpp) and inserts its points selectively (Eq. 6). All state lives in the session directory
+// (docs/session-format.md); every file is written atomically and in an order such that a crash at
+// any moment (kill -9) loses no acknowledged scan (one for which add_scan returned) and leaves no
+// corrupt file. The session never depends on a simulator: the simulator is one more driver.
+// Not thread-safe; one process per directory (a lock file enforces it).
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "autoscan/confidence/confidence.hpp"
+#include "autoscan/consolidate/consolidate.hpp"
+#include "autoscan/core/implicit.hpp"
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/pose.hpp"
+#include "autoscan/core/progress.hpp"
+#include "autoscan/core/rig.hpp"
+#include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/nbv/nbv.hpp"
+#include "autoscan/planners/planner.hpp"
+#include "autoscan/registration/icp.hpp"
+#include "autoscan/session/options.hpp"
+#include "autoscan/session/reconstruct.hpp"
+
+namespace autoscan::session {
+
+/// What add_scan did.
+struct ScanRecord {
+  int id = 0;                    ///< scans/scan_NNNN.ply
+  std::size_t points = 0;        ///< points received
+  std::size_t inserted = 0;      ///< points inserted into the model (Eq. 6)
+  int model_iteration = -1;      ///< iteration whose model the scan was registered to (-1: none yet)
+  Pose reported_pose;            ///< as the robot reported it
+  Pose registered_pose;          ///< after the registration correction
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();  ///< applied to the scan (world frame)
+  std::optional<registration::IcpResult> registration;  ///< when ICP ran
+  double seconds_registration = 0.0;
+  double seconds_insertion = 0.0;
+};
+
+/// One iteration's figures (session.json "iterations"; see docs/session-format.md).
+struct IterationRecord {
+  int index = 0;
+  std::vector<int> scans;        ///< scan ids added since the previous iteration
+  std::size_t raw_points = 0;    ///< points in the model (after selective insertion)
+  std::size_t consolidated_points = 0;
+  std::size_t mesh_vertices = 0;
+  std::size_t iso_points = 0;
+  int views = 0;                 ///< views returned
+  double mean_f = 0.0, mean_f_g = 0.0, mean_f_s = 0.0;
+  double delta_mean_f = 0.0;     ///< mean_f − previous mean_f (0 for the first iteration)
+  double path_length = 0.0;
+  std::map<std::string, double> seconds;  ///< consolidate, poisson, confidence, plan, registration, insertion, write
+  nlohmann::json planner_diagnostics = nlohmann::json::object();
+  nlohmann::json truth;          ///< null, or what a driver that knows the truth attached
+  bool stopped = false;
+  std::string stop_reason;       ///< "", "converged", "max_iterations", "max_views", "no_views"
+};
+
+struct NextViews {
+  std::vector<planners::PlannedView> views;  ///< ordered into a path from `current`
+  double path_length = 0.0;
+  bool stopped = false;
+  std::string reason;            ///< why it stopped (see IterationRecord::stop_reason)
+  int iteration = -1;            ///< the iteration this answer comes from
+  std::filesystem::path directory;  ///< iterations/iter_KKK
+  /// The model this iteration built (mesh, iso-points, field...), for drivers that evaluate it
+  /// against a truth; null when the answer was replayed (the session had already stopped).
+  std::shared_ptr<const Reconstruction> reconstruction;
+};
+
+struct SessionStatus {
+  std::filesystem::path directory;
+  std::string planner;
+  int scans = 0;
+  std::size_t model_points = 0;
+  int iterations = 0;
+  int views_planned = 0;
+  bool stopped = false;
+  std::string stop_reason;
+  std::optional<double> last_mean_f;
+  std::optional<Pose> current_pose;
+  int pending_scans = 0;         ///< scans added since the last iteration
+};
+nlohmann::json to_json(const SessionStatus& s);
+nlohmann::json to_json(const IterationRecord& r);
+nlohmann::json to_json(const ScanRecord& r);
+
+class Session {
+ public:
+  /// Creates a new session in `dir` (created if missing; must not already hold a session.json).
+  /// Throws InputError for invalid scanner/rig/options or an existing session.
+  static Session create(const std::filesystem::path& dir, const ScannerSpec& scanner, const Rig& rig,
+                        const SessionOptions& options = {});
+  /// Resumes the session in `dir`: reads session.json, re-applies each referenced scan's stored
+  /// registration correction and insertion mask (no ICP or sampling is redone, so the model is
+  /// bit-identical to the one before the restart), and reloads the last iteration's
+  /// registration target (consolidated.ply, iso.ply of the last iteration, stored in double
+  /// precision) from the iteration directory. The planner is re-created and every scan replayed
+  /// into Planner::observe_scan. Unreferenced scan files
+  /// (written but not acknowledged before a crash) are moved to scans/orphaned/; leftover temporary
+  /// files are deleted. Throws InputError if `dir` holds no valid session.
+  static Session open(const std::filesystem::path& dir);
+
+  Session(Session&&) noexcept;
+  Session& operator=(Session&&) noexcept;
+  ~Session();
+
+  /// Takes one scan: points (and optional normals, scalars) in the world frame of `reported_pose`.
+  /// Registers it to the model when one exists (weighted ICP, weights = f of the iso-point nearest
+  /// to each model point), selectively inserts its points (Eq. 6), then persists it: scans/
+  /// scan_NNNN.ply, scans/scan_NNNN.json, then session.json. When it returns, the scan is durable.
+  /// Throws InputError for non-finite points or pose.
+  ScanRecord add_scan(const PointCloud& scan, const Pose& reported_pose);
+
+  /// Runs one iteration: consolidate → Poisson → confidence → planner (skipped when the stop rule
+  /// fires), writes iterations/iter_KKK/ and appends the iteration to session.json. Stop rule: the
+  /// mean confidence changed by less than stop_threshold since the previous iteration, or the
+  /// iteration budget is spent (this was the last iteration), or the view budget is spent, or the
+  /// planner found nothing worth scanning. Once stopped, later calls return the stopped answer
+  /// without recomputing. Throws InputError when no scan was added yet.
+  NextViews next_views(const Pose& current);
+  NextViews next_views();  ///< from the last known pose (the last scan's registered pose)
+
+  /// Attaches figures a driver that knows the truth computed (accuracy, completeness, coverage...)
+  /// to iteration `index` (its "truth" field), and persists session.json.
+  void attach_truth(int index, const nlohmann::json& truth);
+
+  SessionStatus status() const;
+  const std::filesystem::path& directory() const;
+  const SessionOptions& options() const;
+  const ScannerSpec& scanner() const;
+  const Rig& rig() const;
+  const std::vector<ScanRecord>& scans() const;
+  const std::vector<IterationRecord>& iterations() const;
+  /// The model's raw points (every inserted point, registered, world frame; scalars scan_id,
+  /// sensor_x/y/z).
+  const PointCloud& model_points() const;
+
+  /// Replaces how an iteration reconstructs and assesses the model (default: the consolidate →
+  /// poisson → confidence stages). Used by tests and by drivers with their own reconstruction;
+  /// not persisted (set it again after open()).
+  void set_reconstructor(Reconstructor r);
+  /// Progress/cancel callback for the long stages.
+  void set_progress(ProgressCallback cb);
+
+ private:
+  struct Impl;
+  explicit Session(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Eq. 6 on its own: for each point, the nearest iso-point's f, and keep it with probability
+/// (1 − f)^rho, drawing one uniform number per point in order from `rng`. Returns the kept flags.
+/// `iso_f` has one value per iso-point. Empty iso-points keep everything.
+std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& iso_points,
+                                           const std::vector<double>& iso_f, double rho, Rng& rng);
+
+/// The stop rule (§5.3) on its own: true when |mean_f − previous_mean_f| < threshold.
+bool confidence_converged(double previous_mean_f, double mean_f, double threshold = 0.005);
+
+}  // namespace autoscan::session

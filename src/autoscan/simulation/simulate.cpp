@@ -1,0 +1,342 @@
+#include "autoscan/simulation/simulate.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/planners/planner.hpp"
+#include "autoscan/report/report.hpp"
+#include "autoscan/scanner/virtual_scanner.hpp"
+#include "autoscan/session/reconstruct.hpp"
+#include "autoscan/session/session.hpp"
+#include "autoscan/shapes/normalize.hpp"
+
+namespace autoscan::simulation {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+void SimulateOptions::validate() const {
+  session.validate();
+  scanner.validate("scanner");
+  rig.validate("rig");
+  blind.validate();
+  AUTOSCAN_REQUIRE(eval.tau > 0 && eval.samples > 0, "evaluation: tau and samples must be positive");
+  for (int c : checkpoints) AUTOSCAN_REQUIRE(c > 0, "checkpoints: view budgets must be positive, got {}", c);
+}
+
+json to_json(const SimulateOptions& o) {
+  return {{"session", session::to_json(o.session)},
+          {"scanner", autoscan::to_json(o.scanner)},
+          {"rig", autoscan::to_json(o.rig)},
+          {"blind", {{"views", o.blind.views}, {"elevations_deg", o.blind.elevations_deg},
+                     {"distance", o.blind.distance}, {"azimuth_offset_deg", o.blind.azimuth_offset_deg}}},
+          {"normalize", o.normalize},
+          {"evaluate", o.evaluate},
+          {"eval", {{"tau", o.eval.tau}, {"samples", o.eval.samples}, {"seed", o.eval.seed},
+                    {"histogram_bins", o.eval.histogram_bins}, {"histogram_max", o.eval.histogram_max}}},
+          {"checkpoints", o.checkpoints},
+          {"report", o.report}};
+}
+
+SimulateOptions simulate_options_from_json(const json& j, SimulateOptions o, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: must be a JSON object", what);
+  static const std::set<std::string> known = {"session", "scanner", "rig",        "blind",      "normalize",
+                                              "evaluate", "eval",   "checkpoints", "report"};
+  for (const auto& [k, v] : j.items())
+    AUTOSCAN_REQUIRE(known.count(k), "{}: unknown field '{}' (known: session, scanner, rig, blind, normalize, "
+                     "evaluate, eval, checkpoints, report)", what, k);
+  try {
+    if (j.contains("session")) o.session = session::session_options_from_json(j["session"], o.session, what + ".session");
+    if (j.contains("scanner")) {
+      json merged = autoscan::to_json(o.scanner);
+      merged.merge_patch(j["scanner"]);
+      o.scanner = scanner_from_json(merged, what + ".scanner");
+    }
+    if (j.contains("rig")) {
+      json merged = autoscan::to_json(o.rig);
+      merged.merge_patch(j["rig"]);
+      o.rig = rig_from_json(merged, what + ".rig");
+    }
+    if (j.contains("blind")) {
+      const auto& b = j["blind"];
+      AUTOSCAN_REQUIRE(b.is_object(), "{}.blind: must be an object", what);
+      o.blind.views = b.value("views", o.blind.views);
+      o.blind.elevations_deg = b.value("elevations_deg", o.blind.elevations_deg);
+      o.blind.distance = b.value("distance", o.blind.distance);
+      o.blind.azimuth_offset_deg = b.value("azimuth_offset_deg", o.blind.azimuth_offset_deg);
+    }
+    o.normalize = j.value("normalize", o.normalize);
+    o.evaluate = j.value("evaluate", o.evaluate);
+    o.report = j.value("report", o.report);
+    if (j.contains("eval")) {
+      const auto& e = j["eval"];
+      AUTOSCAN_REQUIRE(e.is_object(), "{}.eval: must be an object", what);
+      o.eval.tau = e.value("tau", o.eval.tau);
+      o.eval.samples = e.value("samples", o.eval.samples);
+      o.eval.seed = e.value("seed", o.eval.seed);
+      o.eval.histogram_bins = e.value("histogram_bins", o.eval.histogram_bins);
+      o.eval.histogram_max = e.value("histogram_max", o.eval.histogram_max);
+    }
+    if (j.contains("checkpoints")) o.checkpoints = j["checkpoints"].get<std::vector<int>>();
+  } catch (const json::exception& e) {
+    throw InputError(fmt::format("{}: {}", what, e.what()));
+  }
+  o.validate();
+  return o;
+}
+
+json SimulateResult::to_json() const {
+  return {{"directory", directory.string()}, {"iterations", iterations}, {"scans", scans},
+          {"views", views},                   {"skipped_views", skipped_views}, {"stop_reason", stop_reason},
+          {"mean_f", mean_f},                 {"truth", truth},                {"checkpoints", checkpoints},
+          {"seconds", seconds}};
+}
+
+json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const TriangleMesh& truth,
+                   const eval::EvalOptions& options) {
+  json t = json::object();
+  if (!recon.empty()) {
+    const auto r = eval::evaluate_mesh(recon, truth, options);
+    t["accuracy_mean"] = r.accuracy.mean;
+    t["accuracy_rms"] = r.accuracy.rms;
+    t["accuracy_p90"] = r.accuracy.p90;
+    t["accuracy_max"] = r.accuracy.max;
+    t["completeness_mean"] = r.completeness.mean;
+    t["completeness_p90"] = r.completeness.p90;
+    t["precision"] = r.precision;
+    t["recall"] = r.recall;
+    t["fscore"] = r.fscore;
+    json h = r.histogram.to_json();
+    // The report's plot reads labels/values.
+    json labels = json::array(), values = json::array();
+    for (std::size_t b = 0; b < r.histogram.share.size(); ++b) {
+      labels.push_back(fmt::format("{:.4f}", r.histogram.edges[b + 1]));
+      values.push_back(r.histogram.share[b]);
+    }
+    h["labels"] = labels;
+    h["values"] = values;
+    t["histogram"] = h;
+  }
+  t["coverage"] = eval::coverage(raw, truth, options.tau, options.samples, options.seed);
+  t["tau"] = options.tau;
+  return t;
+}
+
+namespace {
+
+const char* kSimFile = "simulation.json";
+const char* kCheckpointFile = "checkpoints.json";
+
+bool same_position(const Pose& a, const Pose& b) { return (a.position - b.position).norm() < 1e-12; }
+
+class Loop {
+ public:
+  Loop(const fs::path& dir, TriangleMesh truth, SimulateOptions opts, const ProgressCallback& progress)
+      : dir_(dir), truth_(std::move(truth)), opts_(std::move(opts)), progress_(progress) {
+    scanner::VirtualScannerOptions so;
+    so.rig = opts_.rig;
+    scanner_ = std::make_unique<scanner::VirtualScanner>(truth_, opts_.scanner, so);
+    if (fs::exists(dir_ / kCheckpointFile)) {
+      auto j = json::parse(read_text_file(dir_ / kCheckpointFile), nullptr, false);
+      AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_array(), "{}: corrupt checkpoints file",
+                       (dir_ / kCheckpointFile).string());
+      checkpoints_ = j;
+    }
+  }
+
+  SimulateResult run(session::Session& s) {
+    Stopwatch clock;
+    s.set_progress(progress_);
+    blind_phase(s);
+    nbv_phase(s);
+    SimulateResult r;
+    r.directory = dir_;
+    r.iterations = static_cast<int>(s.iterations().size());
+    r.scans = static_cast<int>(s.scans().size());
+    r.views = views_done(s);
+    r.skipped_views = skipped_;
+    if (!s.iterations().empty()) {
+      const auto& last = s.iterations().back();
+      r.stop_reason = last.stop_reason;
+      r.mean_f = last.mean_f;
+      r.truth = last.truth;
+    }
+    fill_checkpoints(s, r);
+    r.checkpoints = checkpoints_;
+    if (opts_.report) report::write_report(dir_);
+    r.seconds = clock.seconds();
+    return r;
+  }
+
+ private:
+  // Scans taken after the first model existed (the next-best-view scans).
+  static int views_done(const session::Session& s) {
+    return static_cast<int>(std::count_if(s.scans().begin(), s.scans().end(),
+                                          [](const session::ScanRecord& r) { return r.model_iteration >= 0; }));
+  }
+
+  std::uint64_t scan_seed() const { return opts_.session.seed; }
+
+  // Scans `pose` and adds it; false when the scanner refuses the pose (unreachable, inside).
+  bool scan_and_add(session::Session& s, const Pose& pose) {
+    const auto id = static_cast<std::uint64_t>(s.scans().size());
+    scanner::ScanResult r;
+    try {
+      r = scanner_->scan(pose, id, scan_seed());
+    } catch (const InputError& e) {
+      log::warn("simulate: view skipped: {}", e.what());
+      ++skipped_;
+      return false;
+    }
+    if (r.cloud.empty()) {
+      log::info("simulate: scan {} captured no points", id);
+    }
+    s.add_scan(r.cloud, pose);
+    return true;
+  }
+
+  void blind_phase(session::Session& s) {
+    const auto poses = scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind);
+    if (!s.iterations().empty()) return;
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      const bool done = std::any_of(s.scans().begin(), s.scans().end(),
+                                    [&](const session::ScanRecord& r) { return same_position(r.reported_pose, poses[i]); });
+      if (done) continue;
+      scan_and_add(s, poses[i]);
+      if (progress_) progress_("blind scan", static_cast<double>(i + 1) / static_cast<double>(poses.size()));
+    }
+    AUTOSCAN_CHECK(!s.scans().empty(), "simulate: the blind scan captured nothing (is the object within range?)");
+  }
+
+  void attach_truth_if_missing(session::Session& s, const TriangleMesh* mesh) {
+    if (!opts_.evaluate || s.iterations().empty()) return;
+    const auto& last = s.iterations().back();
+    if (!last.truth.is_null() && !last.truth.empty()) return;
+    TriangleMesh loaded;
+    if (!mesh) {
+      const fs::path p = dir_ / "iterations" / fmt::format("iter_{:03d}", last.index) / "mesh.ply";
+      if (fs::exists(p)) loaded = io::read_mesh(p);
+      mesh = &loaded;
+    }
+    json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval);
+    t["views_taken"] = views_done(s);
+    s.attach_truth(last.index, t);
+    log::info("iteration {}: mean f {:.3f}, coverage {:.3f}, F-score {:.3f}, accuracy {:.5f}", last.index,
+              last.mean_f, t.value("coverage", 0.0), t.value("fscore", 0.0), t.value("accuracy_mean", 0.0));
+  }
+
+  void maybe_checkpoint(session::Session& s) {
+    const int v = views_done(s);
+    if (std::find(opts_.checkpoints.begin(), opts_.checkpoints.end(), v) == opts_.checkpoints.end()) return;
+    for (const auto& c : checkpoints_)
+      if (c.value("views", -1) == v) return;
+    const auto model = session::reconstruct_model(s.model_points(), s.options());
+    json t = truth_figures(model.mesh, s.model_points(), truth_, opts_.eval);
+    t["views"] = v;
+    t["views_taken"] = v;
+    t["mean_f"] = model.mean_f;
+    t["reached"] = true;
+    checkpoints_.push_back(t);
+    write_text_atomic(dir_ / kCheckpointFile, checkpoints_.dump(1));
+  }
+
+  void fill_checkpoints(const session::Session& s, SimulateResult& r) {
+    if (opts_.checkpoints.empty() || !r.truth.is_object()) return;
+    for (int c : opts_.checkpoints) {
+      bool have = false;
+      for (const auto& e : checkpoints_) have = have || e.value("views", -1) == c;
+      if (have) continue;
+      // The loop stopped (or its budget ran out) before this budget: the final model stands for it.
+      json t = r.truth;
+      t["views"] = c;
+      t["views_taken"] = views_done(s);
+      t["mean_f"] = r.mean_f;
+      t["reached"] = false;
+      checkpoints_.push_back(t);
+    }
+    std::sort(checkpoints_.begin(), checkpoints_.end(),
+              [](const json& a, const json& b) { return a.value("views", 0) < b.value("views", 0); });
+    write_text_atomic(dir_ / kCheckpointFile, checkpoints_.dump(1));
+  }
+
+  void nbv_phase(session::Session& s) {
+    const int max_views = opts_.session.max_views;
+    while (true) {
+      if (s.iterations().empty()) {
+        const auto step = s.next_views();
+        attach_truth_if_missing(s, step.reconstruction ? &step.reconstruction->mesh : nullptr);
+        continue;
+      }
+      attach_truth_if_missing(s, nullptr);
+      const auto& last = s.iterations().back();
+      if (last.stopped) return;
+      const int k = last.index;
+      const fs::path vpath = dir_ / "iterations" / fmt::format("iter_{:03d}", k) / "views.json";
+      const auto vj = json::parse(read_text_file(vpath), nullptr, false);
+      AUTOSCAN_REQUIRE(!vj.is_discarded(), "{}: not valid JSON", vpath.string());
+      const auto views = planners::views_from_json(vj, vpath.string());
+      for (const auto& view : views) {
+        const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
+          return r.model_iteration == k && same_position(r.reported_pose, view.pose);
+        });
+        if (done) continue;
+        if (views_done(s) >= max_views) break;
+        if (scan_and_add(s, view.pose)) maybe_checkpoint(s);
+        if (progress_) progress_("next-best views", std::min(1.0, views_done(s) / static_cast<double>(max_views)));
+      }
+      const auto step = s.next_views();
+      attach_truth_if_missing(s, step.reconstruction ? &step.reconstruction->mesh : nullptr);
+    }
+  }
+
+  fs::path dir_;
+  TriangleMesh truth_;
+  SimulateOptions opts_;
+  ProgressCallback progress_;
+  std::unique_ptr<scanner::VirtualScanner> scanner_;
+  json checkpoints_ = json::array();
+  int skipped_ = 0;
+};
+
+}  // namespace
+
+SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const SimulateOptions& options,
+                        const ProgressCallback& progress) {
+  options.validate();
+  AUTOSCAN_REQUIRE(!truth_in.empty(), "simulate: the mesh has no faces");
+  truth_in.validate("simulate: mesh");
+  std::error_code ec;
+  AUTOSCAN_REQUIRE(!fs::exists(out / "session.json", ec) && !fs::exists(out / kSimFile, ec),
+                   "{}: already holds a simulation (use --resume to continue it, or another --out)", out.string());
+  TriangleMesh truth = truth_in;
+  if (options.normalize) normalize_to_benchmark_frame(truth);
+  fs::create_directories(out);
+  io::write_mesh(out / "truth.ply", truth);
+  json sim = {{"format", "autoscan-simulation"}, {"version", 1}, {"truth", "truth.ply"}, {"options", to_json(options)}};
+  write_text_atomic(out / kSimFile, sim.dump(2));
+  auto s = session::Session::create(out, options.scanner, options.rig, options.session);
+  Loop loop(out, std::move(truth), options, progress);
+  return loop.run(s);
+}
+
+SimulateResult resume(const fs::path& out, const ProgressCallback& progress) {
+  const fs::path sim_path = out / kSimFile;
+  std::error_code ec;
+  AUTOSCAN_REQUIRE(fs::exists(sim_path, ec), "{}: no simulation to resume (missing {})", out.string(), kSimFile);
+  const auto sim = json::parse(read_text_file(sim_path), nullptr, false);
+  AUTOSCAN_REQUIRE(!sim.is_discarded() && sim.is_object() && sim.contains("options"), "{}: corrupt simulation file",
+                   sim_path.string());
+  SimulateOptions options = simulate_options_from_json(sim["options"], {}, sim_path.string());
+  TriangleMesh truth = io::read_mesh(out / "truth.ply");
+  auto s = fs::exists(out / "session.json", ec)
+               ? session::Session::open(out)
+               : session::Session::create(out, options.scanner, options.rig, options.session);
+  Loop loop(out, std::move(truth), options, progress);
+  return loop.run(s);
+}
+
+}  // namespace autoscan::simulation

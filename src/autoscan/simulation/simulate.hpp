@@ -1,0 +1,76 @@
+#pragma once
+// The whole autoscanning loop in simulation (paper §6, Figures 7-8): the virtual structured-light
+// scanner drives a session (session/session.hpp) exactly as a real robot would — blind scan, then
+// per iteration: next views → scan each view → add the scan — until the session's stop rule fires.
+// Because the truth is known, each iteration also gets ground-truth figures (accuracy and
+// completeness of the Poisson mesh, F-score, coverage of the scanned points), attached to the
+// session's iteration records.
+//
+// Output directory = the session directory (docs/session-format.md) plus simulation.json (how to
+// drive it, for --resume) and truth.ply (the normalised truth mesh). Resumable after a crash at any
+// moment: every scan is deterministic in (seed, scan id), so resume() re-derives what was done from
+// the session and continues; no acknowledged scan is lost or repeated.
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/progress.hpp"
+#include "autoscan/core/rig.hpp"
+#include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/eval/metrics.hpp"
+#include "autoscan/scanner/blind_scan.hpp"
+#include "autoscan/session/options.hpp"
+
+namespace autoscan::simulation {
+
+struct SimulateOptions {
+  session::SessionOptions session;     ///< planner, stage options, budgets (max_views, max_iterations), seed
+  ScannerSpec scanner;                 ///< the virtual scanner (noise included)
+  Rig rig;                             ///< which poses the robot reaches
+  scanner::BlindScanOptions blind;     ///< the initial all-round scan (Figure 2(b))
+  bool normalize = true;               ///< bring the mesh into the benchmark frame (diagonal 1, centred)
+  bool evaluate = true;                ///< ground-truth figures per iteration
+  eval::EvalOptions eval = {0.005, 60000, 1, 20, 0.02};  ///< τ = 0.005 of the diagonal; fewer samples per iteration
+  std::vector<int> checkpoints;        ///< view budgets at which the model is evaluated (bench: 10,20,40)
+  bool report = true;                  ///< write report.html at the end
+
+  void validate() const;
+};
+
+nlohmann::json to_json(const SimulateOptions& o);
+/// Fields present in `j` override `base`; unknown fields are an InputError naming `what`.
+SimulateOptions simulate_options_from_json(const nlohmann::json& j, SimulateOptions base = {},
+                                           const std::string& what = "config");
+
+struct SimulateResult {
+  std::filesystem::path directory;
+  int iterations = 0;
+  int scans = 0;            ///< blind + next-best-view scans
+  int views = 0;            ///< next-best-view scans taken
+  int skipped_views = 0;    ///< views the scanner refused (unreachable, inside the object)
+  std::string stop_reason;
+  double mean_f = 0.0;      ///< last iteration's global confidence
+  nlohmann::json truth;     ///< last iteration's ground-truth figures (null when evaluate is off)
+  nlohmann::json checkpoints = nlohmann::json::array();  ///< [{views, coverage, fscore, ...}]
+  double seconds = 0.0;
+  nlohmann::json to_json() const;
+};
+
+/// Runs the loop on `truth` (normalised first unless options.normalize is false) into `out`
+/// (created; must not hold a session already). Throws InputError for bad options or an empty mesh.
+SimulateResult simulate(const TriangleMesh& truth, const std::filesystem::path& out, const SimulateOptions& options,
+                        const ProgressCallback& progress = {});
+
+/// Continues a simulation in `out` after a crash or a kill. Throws InputError if `out` holds no
+/// simulation.
+SimulateResult resume(const std::filesystem::path& out, const ProgressCallback& progress = {});
+
+/// Ground-truth figures of a model: the Poisson mesh against the truth (accuracy, completeness,
+/// precision/recall/F-score at τ, Figure 9 histogram) and the coverage of the raw points.
+nlohmann::json truth_figures(const TriangleMesh& recon, const PointCloud& raw_points, const TriangleMesh& truth,
+                             const eval::EvalOptions& options);
+
+}  // namespace autoscan::simulation

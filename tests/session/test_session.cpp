@@ -1,0 +1,437 @@
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/error.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "session_fixtures.hpp"
+
+using namespace autoscan;
+using namespace autoscan::session;
+namespace fs = std::filesystem;
+using test::fresh_dir;
+using test::scripted_reconstructor;
+using test::sphere_scan;
+
+namespace {
+
+Pose pose_from(const Vec3& p) { return Pose::look_at(p, Vec3::Zero()); }
+
+bool same_cloud(const PointCloud& a, const PointCloud& b) {
+  if (a.positions != b.positions) return false;
+  if (a.scalars.size() != b.scalars.size()) return false;
+  for (const auto& [name, col] : a.scalars.columns()) {
+    const auto* other = b.scalars.find(name);
+    if (!other || *other != col) return false;
+  }
+  return true;
+}
+
+// Blind scans from four sides.
+void add_blind_scans(Session& s, std::uint64_t seed = 1) {
+  const Vec3 from[] = {{1.2, 0, 0.2}, {0, 1.2, 0.2}, {-1.2, 0, 0.2}, {0, -1.2, 0.2}};
+  for (int i = 0; i < 4; ++i) s.add_scan(sphere_scan(from[i], 1500, seed + i), pose_from(from[i]));
+}
+
+}  // namespace
+
+// ---- Eq. 6 ------------------------------------------------------------------------------------------
+
+TEST(SelectiveInsertion, HalfConfidenceKeepsAnEighth) {
+  const auto iso = test::fibonacci(400);
+  const std::vector<double> f(iso.size(), 0.5);
+  const PointCloud pts = sphere_scan(Vec3(1, 0, 0), 40000, 3);
+  Rng rng(11);
+  const auto keep = selective_insertion_mask(pts.positions, iso, f, 3.0, rng);
+  const double kept = static_cast<double>(std::count(keep.begin(), keep.end(), 1)) / static_cast<double>(keep.size());
+  // (1 − 0.5)^3 = 0.125; binomial std-dev sqrt(0.125·0.875/40000) ≈ 0.0017.
+  EXPECT_NEAR(kept, 0.125, 0.008);
+  Rng again(11);
+  EXPECT_EQ(selective_insertion_mask(pts.positions, iso, f, 3.0, again), keep);
+  Rng other(12);
+  EXPECT_NE(selective_insertion_mask(pts.positions, iso, f, 3.0, other), keep);
+}
+
+TEST(SelectiveInsertion, FollowsTheNearestIsoPointsConfidence) {
+  // Iso-points with f = 1 on the upper half and f = 0 on the lower half.
+  const auto iso = test::fibonacci(2000);
+  std::vector<double> f(iso.size());
+  for (std::size_t i = 0; i < iso.size(); ++i) f[i] = iso[i].z() > 0 ? 1.0 : 0.0;
+  PointCloud pts = sphere_scan(Vec3(1, 0, 0), 5000, 5);
+  Rng rng(1);
+  const auto keep = selective_insertion_mask(pts.positions, iso, f, 3.0, rng);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (pts.positions[i].z() > 0.02) EXPECT_EQ(keep[i], 0) << i;
+    if (pts.positions[i].z() < -0.02) EXPECT_EQ(keep[i], 1) << i;
+  }
+  Rng r2(1);
+  const auto all = selective_insertion_mask(pts.positions, iso, f, 0.0, r2);  // ρ = 0 keeps everything
+  EXPECT_EQ(std::count(all.begin(), all.end(), 1), static_cast<long>(pts.size()));
+  Rng r3(1);
+  EXPECT_THROW(selective_insertion_mask(pts.positions, iso, std::vector<double>(3, 0.0), 3.0, r3), InputError);
+}
+
+TEST(SelectiveInsertion, SessionKeepsAboutAnEighthAtHalfConfidenceAndAllWhenDisabled) {
+  for (bool selective : {true, false}) {
+    const auto dir = fresh_dir(selective ? "ins_on" : "ins_off");
+    auto o = test::test_options();
+    o.selective_insertion = selective;
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+    s.set_reconstructor(scripted_reconstructor({0.5}));
+    add_blind_scans(s);
+    // Before any model exists everything is inserted.
+    EXPECT_EQ(s.model_points().size(), 4u * 1500u);
+    s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+    const auto rec = s.add_scan(sphere_scan(Vec3(0.5, 0.5, 1), 20000, 9), pose_from(Vec3(0.6, 0.6, 1.0)));
+    if (selective)
+      EXPECT_NEAR(static_cast<double>(rec.inserted) / 20000.0, 0.125, 0.012);
+    else
+      EXPECT_EQ(rec.inserted, 20000u);
+    EXPECT_EQ(s.model_points().size(), 4u * 1500u + rec.inserted);
+    fs::remove_all(dir);
+  }
+}
+
+// ---- the stop rule (§5.3) ---------------------------------------------------------------------------
+
+TEST(StopRule, ConvergedFunction) {
+  EXPECT_TRUE(confidence_converged(0.50, 0.504));
+  EXPECT_TRUE(confidence_converged(0.504, 0.50));
+  EXPECT_FALSE(confidence_converged(0.50, 0.506));
+  EXPECT_FALSE(confidence_converged(0.50, 0.45));
+  EXPECT_TRUE(confidence_converged(0.5, 0.51, 0.02));
+}
+
+TEST(StopRule, StopsWhenMeanConfidenceSettles) {
+  const auto dir = fresh_dir("stop_conv");
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+  auto calls = std::make_shared<int>(0);
+  s.set_reconstructor(scripted_reconstructor({0.2, 0.4, 0.402, 0.9}, calls));
+  add_blind_scans(s);
+  auto a = s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+  EXPECT_FALSE(a.stopped);
+  EXPECT_EQ(a.views.size(), 3u);
+  for (const auto& v : a.views) s.add_scan(sphere_scan(v.pose.position, 800, 50), v.pose);
+  auto b = s.next_views(a.views.back().pose);
+  EXPECT_FALSE(b.stopped);  // Δ = 0.2
+  auto c = s.next_views(b.views.back().pose);
+  EXPECT_TRUE(c.stopped);  // Δ = 0.002 < 0.005
+  EXPECT_EQ(c.reason, "converged");
+  EXPECT_TRUE(c.views.empty());
+  EXPECT_NEAR(s.iterations().back().delta_mean_f, 0.002, 1e-12);
+  // Once stopped, the answer is replayed without a new iteration.
+  auto d = s.next_views(b.views.back().pose);
+  EXPECT_TRUE(d.stopped);
+  EXPECT_EQ(d.reason, "converged");
+  EXPECT_EQ(*calls, 3);
+  EXPECT_EQ(s.iterations().size(), 3u);
+  EXPECT_TRUE(s.status().stopped);
+  // The iteration artefacts exist and views.json says it stopped.
+  const auto views = nlohmann::json::parse(read_text_file(dir / "iterations" / "iter_002" / "views.json"));
+  EXPECT_EQ(views.at("stop_reason"), "converged");
+  EXPECT_TRUE(views.at("views").empty());
+  for (const char* f : {"cloud.ply", "consolidated.ply", "iso.ply"})
+    EXPECT_TRUE(fs::exists(dir / "iterations" / "iter_000" / f)) << f;
+  fs::remove_all(dir);
+}
+
+TEST(StopRule, IterationAndViewBudgets) {
+  {
+    const auto dir = fresh_dir("stop_iter");
+    auto o = test::test_options();
+    o.max_iterations = 2;
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+    s.set_reconstructor(scripted_reconstructor({0.1, 0.3, 0.6}));
+    add_blind_scans(s);
+    EXPECT_FALSE(s.next_views(pose_from(Vec3(1, 0, 0))).stopped);
+    const auto r = s.next_views(pose_from(Vec3(1, 0, 0)));
+    EXPECT_TRUE(r.stopped);
+    EXPECT_EQ(r.reason, "max_iterations");
+    fs::remove_all(dir);
+  }
+  {
+    const auto dir = fresh_dir("stop_views");
+    auto o = test::test_options();
+    o.max_views = 4;  // 3 views per iteration: 3, then 1 (truncated), then stop
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+    s.set_reconstructor(scripted_reconstructor({0.1, 0.3, 0.6}));
+    add_blind_scans(s);
+    EXPECT_EQ(s.next_views(pose_from(Vec3(1, 0, 0))).views.size(), 3u);
+    const auto second = s.next_views(pose_from(Vec3(1, 0, 0)));
+    EXPECT_EQ(second.views.size(), 1u);
+    EXPECT_FALSE(second.stopped);
+    const auto third = s.next_views(pose_from(Vec3(1, 0, 0)));
+    EXPECT_TRUE(third.stopped);
+    EXPECT_EQ(third.reason, "max_views");
+    EXPECT_EQ(s.status().views_planned, 4);
+    fs::remove_all(dir);
+  }
+  {
+    const auto dir = fresh_dir("stop_none");
+    auto o = test::test_options();
+    o.planner_params = {{"views", 0}};
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+    s.set_reconstructor(scripted_reconstructor({0.1}));
+    add_blind_scans(s);
+    const auto r = s.next_views(pose_from(Vec3(1, 0, 0)));
+    EXPECT_TRUE(r.stopped);
+    EXPECT_EQ(r.reason, "no_views");
+    fs::remove_all(dir);
+  }
+}
+
+// ---- registration inside the session ----------------------------------------------------------------
+
+TEST(Session, RegistersScansWithAReportedPoseError) {
+  const auto dir = fresh_dir("register");
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+  s.set_reconstructor(scripted_reconstructor({0.5}));
+  add_blind_scans(s);
+  s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+  // The robot reports a pose 6 mm off: the scan arrives shifted in the world frame.
+  const Vec3 error(0.004, -0.003, 0.003);
+  PointCloud scan = sphere_scan(Vec3(0.8, 0.8, 0.6), 5000, 77);
+  for (auto& p : scan.positions) p += error;
+  const auto rec = s.add_scan(scan, pose_from(Vec3(0.8, 0.8, 0.6)));
+  ASSERT_TRUE(rec.registration.has_value());
+  EXPECT_FALSE(rec.registration->degenerate);
+  EXPECT_LT((rec.correction.translation() + error).norm(), 0.1 * error.norm());
+  EXPECT_LT(rec.registration->rms_after, rec.registration->rms_before);
+  EXPECT_NEAR((rec.registered_pose.position - rec.reported_pose.position).norm(), error.norm(), 0.002);
+  // The inserted points lie on the sphere again.
+  const auto& model = s.model_points();
+  const auto& ids = model.scalars.get("scan_id");
+  for (std::size_t i = 0; i < model.size(); ++i)
+    if (ids[i] == rec.id) EXPECT_NEAR(model.positions[i].norm(), 0.25, 0.001);
+  fs::remove_all(dir);
+}
+
+// ---- persistence --------------------------------------------------------------------------------------
+
+TEST(Persistence, OpenGivesTheSameState) {
+  const auto dir = fresh_dir("roundtrip");
+  std::vector<ScanRecord> scans;
+  PointCloud model;
+  {
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+    s.set_reconstructor(scripted_reconstructor({0.3}));
+    add_blind_scans(s);
+    const auto a = s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+    for (const auto& v : a.views) s.add_scan(sphere_scan(v.pose.position, 1000, 90), v.pose);
+    s.attach_truth(0, {{"coverage", 0.75}});
+    scans = s.scans();
+    model = s.model_points();
+  }
+  auto r = Session::open(dir);
+  ASSERT_EQ(r.scans().size(), scans.size());
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    EXPECT_EQ(r.scans()[i].inserted, scans[i].inserted);
+    EXPECT_EQ(r.scans()[i].points, scans[i].points);
+    EXPECT_TRUE(r.scans()[i].correction.matrix() == scans[i].correction.matrix());
+    EXPECT_TRUE(r.scans()[i].registered_pose.position == scans[i].registered_pose.position);
+  }
+  EXPECT_TRUE(same_cloud(r.model_points(), model));
+  ASSERT_EQ(r.iterations().size(), 1u);
+  EXPECT_EQ(r.iterations()[0].truth.at("coverage"), 0.75);
+  EXPECT_EQ(r.options().planner, "test_ring");
+  EXPECT_EQ(r.options().seed, 7u);
+  const auto st = r.status();
+  EXPECT_EQ(st.scans, static_cast<int>(scans.size()));
+  EXPECT_EQ(st.pending_scans, 3);
+  EXPECT_EQ(st.views_planned, 3);
+  // The planner saw every scan again (observe_scan replay).
+  r.set_reconstructor(scripted_reconstructor({0.6}));
+  const auto b = r.next_views();
+  EXPECT_EQ(r.iterations().back().planner_diagnostics.at("observed"), 7);
+  EXPECT_EQ(r.iterations().back().scans, (std::vector<int>{4, 5, 6}));
+  EXPECT_FALSE(b.stopped);
+  fs::remove_all(dir);
+}
+
+TEST(Persistence, ResumedSessionEqualsUninterruptedOne) {
+  // Same seed and inputs: a session reopened after every step ends bit-identical to one that never
+  // stopped (registration corrections, insertion flags, model points, views).
+  auto drive = [](const fs::path& dir, bool reopen) {
+    auto o = test::test_options();
+    std::optional<Session> s(Session::create(dir, ScannerSpec{}, Rig{}, o));
+    auto calls = std::make_shared<int>(0);
+    auto again = [&] {
+      if (!reopen) return;
+      s.reset();
+      s.emplace(Session::open(dir));
+    };
+    s->set_reconstructor(scripted_reconstructor({0.3, 0.5, 0.7}, calls));
+    const Vec3 from[] = {{1.2, 0, 0.2}, {0, 1.2, 0.2}, {-1.2, 0, 0.2}};
+    for (int i = 0; i < 3; ++i) {
+      s->add_scan(sphere_scan(from[i], 1200, 10 + i), pose_from(from[i]));
+      again();
+    }
+    std::vector<planners::PlannedView> all;
+    for (int it = 0; it < 2; ++it) {
+      s->set_reconstructor(scripted_reconstructor({0.3, 0.5, 0.7}, calls));
+      const auto r = s->next_views(pose_from(Vec3(1.2, 0, 0.2)));
+      again();
+      int k = 0;
+      for (const auto& v : r.views) {
+        PointCloud sc = sphere_scan(v.pose.position, 1500, 100 + 10 * it + k++);
+        for (auto& p : sc.positions) p += Vec3(0.002, 0.0, -0.001);
+        s->add_scan(sc, v.pose);
+        all.push_back(v);
+        again();
+      }
+    }
+    return std::make_tuple(s->model_points(), s->scans(), all);
+  };
+  const auto d1 = fresh_dir("resume_a"), d2 = fresh_dir("resume_b");
+  const auto [m1, s1, v1] = drive(d1, false);
+  const auto [m2, s2, v2] = drive(d2, true);
+  EXPECT_TRUE(same_cloud(m1, m2));
+  ASSERT_EQ(s1.size(), s2.size());
+  for (std::size_t i = 0; i < s1.size(); ++i) {
+    EXPECT_TRUE(s1[i].correction.matrix() == s2[i].correction.matrix()) << i;
+    EXPECT_EQ(s1[i].inserted, s2[i].inserted) << i;
+  }
+  ASSERT_EQ(v1.size(), v2.size());
+  for (std::size_t i = 0; i < v1.size(); ++i) EXPECT_TRUE(v1[i].pose.position == v2[i].pose.position);
+  fs::remove_all(d1);
+  fs::remove_all(d2);
+}
+
+// ---- crash safety ---------------------------------------------------------------------------------------
+
+TEST(CrashSafety, ScanWrittenButNotAcknowledgedIsSetAside) {
+  const auto dir = fresh_dir("crash_orphan");
+  PointCloud model;
+  {
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+    add_blind_scans(s);
+    model = s.model_points();
+  }
+  // A crash after scan 4's files were written but before session.json named it, plus a temporary
+  // file of an interrupted atomic write.
+  fs::copy_file(dir / "scans" / "scan_0001.ply", dir / "scans" / "scan_0004.ply");
+  fs::copy_file(dir / "scans" / "scan_0001.json", dir / "scans" / "scan_0004.json");
+  write_text_atomic(dir / ".session.json.tmp.999.0", "{\"trunc");
+  {
+    auto s = Session::open(dir);
+    EXPECT_EQ(s.scans().size(), 4u);
+    EXPECT_TRUE(same_cloud(s.model_points(), model));
+    EXPECT_FALSE(fs::exists(dir / ".session.json.tmp.999.0"));
+    EXPECT_FALSE(fs::exists(dir / "scans" / "scan_0004.ply"));
+    EXPECT_TRUE(fs::exists(dir / "scans" / "orphaned" / "scan_0004.ply.0"));
+    // The robot, not having had an answer, sends the scan again: it gets id 4.
+    const auto rec = s.add_scan(sphere_scan(Vec3(0, 0, 1.2), 500, 3), pose_from(Vec3(0, 0, 1.2)));
+    EXPECT_EQ(rec.id, 4);
+  }
+  auto s = Session::open(dir);
+  EXPECT_EQ(s.scans().size(), 5u);
+  fs::remove_all(dir);
+}
+
+TEST(CrashSafety, KillDuringAddScanLosesNothingAcknowledged) {
+  // A child process adds scans and reports each acknowledgement through a pipe; it is killed with
+  // SIGKILL at several moments. Reopening must find every acknowledged scan and valid files.
+  for (int kill_after = 1; kill_after <= 4; ++kill_after) {
+    const auto dir = fresh_dir("crash_kill_" + std::to_string(kill_after));
+    { Session::create(dir, ScannerSpec{}, Rig{}, test::test_options()); }
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::close(fds[0]);
+      try {
+        auto s = Session::open(dir);
+        for (int i = 0; i < 1000; ++i) {
+          s.add_scan(sphere_scan(Vec3(std::cos(i), std::sin(i), 0.3), 3000, 500 + i), pose_from(Vec3(1, 0, 0)));
+          const int ack = i + 1;
+          if (::write(fds[1], &ack, sizeof ack) != sizeof ack) ::_exit(3);
+        }
+      } catch (...) {
+        ::_exit(2);
+      }
+      ::_exit(0);
+    }
+    ::close(fds[1]);
+    int acked = 0, v = 0;
+    while (acked < kill_after && ::read(fds[0], &v, sizeof v) == sizeof v) acked = v;
+    ::usleep(static_cast<useconds_t>(1000 * kill_after));  // land at different points of the next write
+    ::kill(pid, SIGKILL);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    while (::read(fds[0], &v, sizeof v) == sizeof v) acked = v;  // acknowledgements sent before the kill
+    ::close(fds[0]);
+    ASSERT_GE(acked, kill_after);
+    auto s = Session::open(dir);
+    EXPECT_GE(static_cast<int>(s.scans().size()), acked);
+    std::size_t total = 0;
+    for (const auto& r : s.scans()) {
+      const auto c = io::read_point_cloud(dir / "scans" / fmt::format("scan_{:04d}.ply", r.id));
+      EXPECT_EQ(c.size(), r.points);
+      total += r.inserted;
+    }
+    EXPECT_EQ(s.model_points().size(), total);
+    fs::remove_all(dir);
+  }
+}
+
+// ---- errors and options -----------------------------------------------------------------------------------
+
+TEST(Session, RejectsBadInput) {
+  const auto dir = fresh_dir("errors");
+  EXPECT_THROW(Session::open(dir), InputError);
+  auto o = test::test_options();
+  o.rho = -1.0;
+  EXPECT_THROW(Session::create(dir, ScannerSpec{}, Rig{}, o), InputError);
+  o = test::test_options();
+  o.planner = "no_such_planner";
+  EXPECT_THROW(Session::create(dir, ScannerSpec{}, Rig{}, o), InputError);
+  EXPECT_FALSE(fs::exists(dir / "session.json"));
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+  EXPECT_THROW(Session::create(dir, ScannerSpec{}, Rig{}, test::test_options()), InputError);
+  EXPECT_THROW(Session::open(dir), InputError);  // locked by `s`
+  EXPECT_THROW(s.next_views(pose_from(Vec3(1, 0, 0))), InputError);  // no scan yet
+  PointCloud bad = sphere_scan(Vec3(1, 0, 0), 10, 1);
+  bad.positions[3].y() = std::nan("");
+  EXPECT_THROW(s.add_scan(bad, pose_from(Vec3(1, 0, 0))), InputError);
+  Pose zero;
+  zero.direction = Vec3::Zero();
+  EXPECT_THROW(s.add_scan(sphere_scan(Vec3(1, 0, 0), 10, 1), zero), InputError);
+  EXPECT_TRUE(s.scans().empty());
+  EXPECT_THROW(s.attach_truth(0, {}), InputError);
+  fs::remove_all(dir);
+}
+
+TEST(Options, JsonRoundTripAndUnknownKeys) {
+  SessionOptions o;
+  o.rho = 2.5;
+  o.nbv.grid_resolution = 40;
+  o.nbv.method = nbv::FieldMethod::reference;
+  o.consolidate.wlop.mode = consolidate::WlopMode::off;
+  o.poisson.depth = 6;
+  o.confidence.iso.count = 1234;
+  o.icp.trim_fraction = 0.8;
+  const auto j = to_json(o);
+  const auto back = session_options_from_json(j);
+  EXPECT_EQ(to_json(back), j);
+  EXPECT_EQ(back.nbv.method, nbv::FieldMethod::reference);
+  EXPECT_EQ(back.poisson.depth, 6);
+  // Partial configs keep the defaults; typos are errors that name the option.
+  const auto partial = session_options_from_json({{"nbv", {{"sigma_deg", 30.0}}}});
+  EXPECT_EQ(partial.nbv.sigma_deg, 30.0);
+  EXPECT_EQ(partial.rho, 3.0);
+  try {
+    session_options_from_json({{"nbv", {{"sigma", 30.0}}}});
+    FAIL() << "unknown key accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("sigma"), std::string::npos);
+  }
+  EXPECT_THROW(session_options_from_json({{"rho", "three"}}), InputError);
+  EXPECT_THROW(session_options_from_json({{"nbv", {{"method", "slow"}}}}), InputError);
+  EXPECT_THROW(session_options_from_json({{"max_views", -1.5}}), InputError);
+}
