@@ -76,7 +76,7 @@ function plot(container, title, x, series, opts = {}) {
     const bw = Math.max(2, (W - L - R) / Math.max(1, n) / series.length - 2);
     series.forEach((s, k) => s.values.forEach((v, i) => {
       if (v === null || !Number.isFinite(v)) return;
-      const x0 = (n <= 1 ? px(0) : px(i)) - (series.length * bw) / 2 + k * bw;
+      const x0 = L + ((i + 0.5) * (W - L - R)) / n - (series.length * bw) / 2 + k * bw;
       svgEl('rect', { x: x0, y: py(v), width: bw, height: Math.max(0, H - B - py(v)), fill: s.color }, svg);
     }));
   } else {
@@ -154,7 +154,7 @@ export function start() {
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.BufferAttribute(pos, 3));
     g.setAttribute('color', new THREE.BufferAttribute(col, 3));
-    groups.cloud.add(new THREE.Points(g, new THREE.PointsMaterial({ size: 0.006, vertexColors: true })));
+    groups.cloud.add(new THREE.Points(g, new THREE.PointsMaterial({ size: 0.0035, vertexColors: true })));
     state.points = n;
   }
 
@@ -277,6 +277,18 @@ export function start() {
     plot(plots, 'error histogram (final)', manifest.histogram.labels, [{ name: 'share', values: manifest.histogram.values, color: '#475569' }], { bars: true, min: 0 });
   }
 
+  // Frame the object: look at the centre of the last iteration's cloud from a distance that fits it.
+  const last = iterations[iterations.length - 1];
+  if (last && last.cloud) {
+    const p = decodeBuffer(last.cloud.positions, Float32Array);
+    const box = new THREE.Box3();
+    for (let i = 0; i < p.length; i += 3) box.expandByPoint(new THREE.Vector3(p[i], p[i + 1], p[i + 2]));
+    const c = box.getCenter(new THREE.Vector3());
+    const r = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
+    controls.target.copy(c);
+    camera.position.copy(c).add(new THREE.Vector3(1.1, -1.4, 0.9).normalize().multiplyScalar(r * 3.2));
+    controls.update();
+  }
   resize();
   show(state.iteration);
   window.autoscanReport = {

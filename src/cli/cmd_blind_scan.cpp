@@ -35,7 +35,8 @@ struct BlindScanCli {
 AUTOSCAN_CLI_COMMAND(blind_scan, 21, [](CLI::App& root, autoscan::cli::Globals& g) {
   auto o = std::make_shared<BlindScanCli>();
   auto* sub = root.add_subcommand("blind-scan", "The initial all-round scan: views on rings around the object");
-  sub->add_option("--mesh", o->mesh, "Mesh to scan (.ply .obj .off .stl), used as it is unless --normalize")->required();
+  sub->add_option("--mesh", o->mesh, "Mesh to scan (.ply .obj .off .stl), used as it is unless --normalize")
+      ->required();
   sub->add_option("--out", o->out, "Output point cloud (.ply): merged scans with normals, scan_id, sensor_x/y/z")
       ->required();
   sub->add_option("--views", o->blind.views, "Total number of views, dealt round-robin over the rings")
@@ -85,12 +86,12 @@ AUTOSCAN_CLI_COMMAND(blind_scan, 21, [](CLI::App& root, autoscan::cli::Globals& 
     nlohmann::json scans = nlohmann::json::array();
     for (std::size_t i = 0; i < r.poses.size(); ++i) {
       const auto& d = r.scans[i];
-      scans.push_back({{"scan_id", o->blind.first_scan_id + i},
-                       {"pose", to_json(r.poses[i])},
-                       {"points", d.points},
-                       {"seconds", d.seconds},
-                       {"misalignment_deg",
-                        Eigen::AngleAxisd(r.misalignments[i].linear()).angle() * 180.0 / std::numbers::pi}});
+      scans.push_back(
+          {{"scan_id", o->blind.first_scan_id + i},
+           {"pose", to_json(r.poses[i])},
+           {"points", d.points},
+           {"seconds", d.seconds},
+           {"misalignment_deg", Eigen::AngleAxisd(r.misalignments[i].linear()).angle() * 180.0 / std::numbers::pi}});
     }
     g.emit({{"command", "blind-scan"},
             {"out", o->out},

@@ -34,7 +34,8 @@ struct ScanCli {
 AUTOSCAN_CLI_COMMAND(scan, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
   auto o = std::make_shared<ScanCli>();
   auto* sub = root.add_subcommand("scan", "One virtual structured-light scan of a mesh from a pose");
-  sub->add_option("--mesh", o->mesh, "Mesh to scan (.ply .obj .off .stl), used as it is unless --normalize")->required();
+  sub->add_option("--mesh", o->mesh, "Mesh to scan (.ply .obj .off .stl), used as it is unless --normalize")
+      ->required();
   sub->add_option("--pose", o->pose, "Scanner pose: px,py,pz,dx,dy,dz (up +Z) or a JSON pose object")->required();
   sub->add_option("--out", o->out, "Output point cloud (.ply): points, normals, scan_id, sensor_x/y/z")->required();
   sub->add_option("--scanner", o->scanner, "Scanner spec (JSON: near, far, fov_deg, width, height, baseline, ...)");
@@ -80,27 +81,27 @@ AUTOSCAN_CLI_COMMAND(scan, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
     log::info("scan: {} points from {} rays ({} hits) in {:.3f} s -> {}", d.points, d.rays_cast, d.hits, d.seconds,
               o->out);
     const double angle = Eigen::AngleAxisd(r.misalignment.linear()).angle() * 180.0 / std::numbers::pi;
-    g.emit({{"command", "scan"},
-            {"out", o->out},
-            {"points", d.points},
-            {"rays_cast", d.rays_cast},
-            {"shadow_rays", d.shadow_rays},
-            {"hits", d.hits},
-            {"rejected",
-             {{"range", d.rejected_range},
-              {"incidence", d.rejected_incidence},
-              {"projector_fov", d.rejected_projector_fov},
-              {"projector_incidence", d.rejected_projector_incidence},
-              {"projector_shadow", d.rejected_projector_shadow}}},
-            {"outliers", d.outliers},
-            {"seconds", d.seconds},
-            {"scan_id", o->scan_id},
-            {"pose", to_json(r.commanded)},
-            {"actual_pose", to_json(r.actual)},
-            {"misalignment",
-             {{"rotation_deg", angle},
-              {"translation",
-               {r.misalignment.translation().x(), r.misalignment.translation().y(),
-                r.misalignment.translation().z()}}}}});
+    g.emit(
+        {{"command", "scan"},
+         {"out", o->out},
+         {"points", d.points},
+         {"rays_cast", d.rays_cast},
+         {"shadow_rays", d.shadow_rays},
+         {"hits", d.hits},
+         {"rejected",
+          {{"range", d.rejected_range},
+           {"incidence", d.rejected_incidence},
+           {"projector_fov", d.rejected_projector_fov},
+           {"projector_incidence", d.rejected_projector_incidence},
+           {"projector_shadow", d.rejected_projector_shadow}}},
+         {"outliers", d.outliers},
+         {"seconds", d.seconds},
+         {"scan_id", o->scan_id},
+         {"pose", to_json(r.commanded)},
+         {"actual_pose", to_json(r.actual)},
+         {"misalignment",
+          {{"rotation_deg", angle},
+           {"translation",
+            {r.misalignment.translation().x(), r.misalignment.translation().y(), r.misalignment.translation().z()}}}}});
   });
 });

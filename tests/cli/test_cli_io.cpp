@@ -24,7 +24,13 @@ std::vector<std::string> malformed_files() {
   return out;
 }
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+/// Single-quotes a path for the shell (built piecewise: GCC 12 warns falsely on "'" + string).
+std::string q(const fs::path& p) {
+  std::string s(1, '\'');
+  s += p.string();
+  s += '\'';
+  return s;
+}
 
 autoscan::TriangleMesh tetrahedron() {
   autoscan::TriangleMesh m;

@@ -1,9 +1,9 @@
 // Command-line contract of `autoscan scan` and `autoscan blind-scan`: summaries, outputs, exit codes.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/io/mesh_io.hpp"
 #include "cli_util.hpp"
@@ -52,8 +52,8 @@ TEST(CliScanner, BlindScanMergesTheViews) {
   const auto dir = fresh_dir("cli_blind_scan");
   const auto mesh = write_cube(dir);
   const auto out = dir / "blind.ply";
-  const auto r = run_cli("--json -q blind-scan --mesh " + mesh.string() + " --normalize --views 6 --elevations 0,45 --out " +
-                         out.string());
+  const auto r = run_cli("--json -q blind-scan --mesh " + mesh.string() +
+                         " --normalize --views 6 --elevations 0,45 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["views"].get<int>(), 6);

@@ -18,7 +18,8 @@ using namespace autoscan::testing;
 
 namespace {
 
-double mean_where(const std::vector<double>& v, const std::vector<Vec3>& p, const std::function<bool(const Vec3&)>& sel) {
+double mean_where(const std::vector<double>& v, const std::vector<Vec3>& p,
+                  const std::function<bool(const Vec3&)>& sel) {
   double s = 0;
   int n = 0;
   for (std::size_t i = 0; i < v.size(); ++i)
@@ -244,8 +245,8 @@ TEST(Confidence, CompletenessOnSphereIsGradientMagnitude) {
   EXPECT_NEAR(r.mean_f_g, 1.0, 1e-3);
   EXPECT_GT(r.mean_f_s, 0.9);
   // A field twice as blurred everywhere halves the (absolute) completeness.
-  const auto r2 = assess_confidence(SphereField(0.4, 2 * eps), icosphere(0.4, 4), raw, 1.0 / (4 * eps),
-                                    small_options());
+  const auto r2 =
+      assess_confidence(SphereField(0.4, 2 * eps), icosphere(0.4, 4), raw, 1.0 / (4 * eps), small_options());
   EXPECT_NEAR(r2.mean_f_g, 0.5, 1e-3);
   EXPECT_NEAR(r2.mean_f, 0.5 * r.mean_f, 0.02);
 }

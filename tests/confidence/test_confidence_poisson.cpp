@@ -154,8 +154,8 @@ TEST(ConfidencePoisson, CoveringTheGapRaisesGlobalConfidence) {
   const auto before = assess_cloud(partial, poisson_options(), options());
   const auto after = assess_cloud(fx.full, poisson_options(), options());
   std::printf("global confidence: gap %.4f (f_g %.3f f_s %.3f), covered %.4f (f_g %.3f f_s %.3f)\n",
-              before.confidence.mean_f, before.confidence.mean_f_g, before.confidence.mean_f_s,
-              after.confidence.mean_f, after.confidence.mean_f_g, after.confidence.mean_f_s);
+              before.confidence.mean_f, before.confidence.mean_f_g, before.confidence.mean_f_s, after.confidence.mean_f,
+              after.confidence.mean_f_g, after.confidence.mean_f_s);
   EXPECT_GT(after.confidence.mean_f, before.confidence.mean_f + 0.02);
   EXPECT_GT(after.confidence.mean_f_g, before.confidence.mean_f_g);
   // The map is coloured on the Poisson mesh too.

@@ -179,7 +179,8 @@ TEST(Icp, ZeroWeightsFallBackToUniform) {
 
 TEST(Icp, DeterministicAcrossRuns) {
   const PointCloud model = sample(20000, 31);
-  const PointCloud scan = partial(sample(8000, 32), Vec3(0.2, -1, 0.4), pose_error(1.0, Vec3(1, 0, 0), Vec3(0, 0.004, 0)));
+  const PointCloud scan =
+      partial(sample(8000, 32), Vec3(0.2, -1, 0.4), pose_error(1.0, Vec3(1, 0, 0), Vec3(0, 0.004, 0)));
   const IcpResult a = icp(scan, model, {});
   const IcpResult b = icp(scan, model, {});
   EXPECT_TRUE(a.transform.matrix() == b.transform.matrix());

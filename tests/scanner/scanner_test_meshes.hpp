@@ -12,12 +12,12 @@ namespace autoscan::testing {
 /// Icosphere of `radius` around `centre`, counter-clockwise seen from outside.
 inline TriangleMesh icosphere(int subdivisions, double radius = 1.0, const Vec3& centre = Vec3::Zero()) {
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Vec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   for (auto& p : v) p.normalize();
-  std::vector<Tri> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                        {11, 10, 2}, {10, 7, 6}, {7, 1, 8},   {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                        {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  std::vector<Tri> f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                        {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                        {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (int s = 0; s < subdivisions; ++s) {
     std::map<std::pair<int, int>, int> mid;
     auto midpoint = [&](int a, int b) {
@@ -93,9 +93,9 @@ inline std::pair<double, std::size_t> closest_triangle(const TriangleMesh& m, co
   std::size_t idx = 0;
   for (std::size_t i = 0; i < m.faces.size(); ++i) {
     const auto& t = m.faces[i];
-    const double d = point_triangle_distance(p, m.vertices[static_cast<std::size_t>(t[0])],
-                                             m.vertices[static_cast<std::size_t>(t[1])],
-                                             m.vertices[static_cast<std::size_t>(t[2])]);
+    const double d =
+        point_triangle_distance(p, m.vertices[static_cast<std::size_t>(t[0])],
+                                m.vertices[static_cast<std::size_t>(t[1])], m.vertices[static_cast<std::size_t>(t[2])]);
     if (d < best) {
       best = d;
       idx = i;

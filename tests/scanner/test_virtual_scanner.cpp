@@ -184,7 +184,8 @@ TEST(VirtualScanner, SixAxisViewsCoverTheSphere) {
       for (int dy = -1; dy <= 1 && !hit; ++dy)
         for (int dz = -1; dz <= 1 && !hit; ++dz) {
           const auto range = grid.equal_range(key(q + tau * Vec3(dx, dy, dz)));
-          for (auto it = range.first; it != range.second && !hit; ++it) hit = (all.positions[it->second] - q).norm() < tau;
+          for (auto it = range.first; it != range.second && !hit; ++it)
+            hit = (all.positions[it->second] - q).norm() < tau;
         }
     covered += hit;
   }

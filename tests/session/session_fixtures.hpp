@@ -15,8 +15,8 @@
 namespace autoscan::test {
 
 inline std::filesystem::path fresh_dir(const std::string& name) {
-  const auto d = std::filesystem::temp_directory_path() /
-                 ("autoscan_session_" + name + "_" + std::to_string(::getpid()));
+  const auto d =
+      std::filesystem::temp_directory_path() / ("autoscan_session_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(d);
   return d;
 }
@@ -104,9 +104,8 @@ class RingPlanner final : public planners::Planner {
 inline void register_test_planner() {
   static std::atomic<bool> done{false};
   if (done.exchange(true)) return;
-  planners::register_planner("test_ring", [](const planners::PlannerOptions& o) {
-    return std::make_unique<RingPlanner>(o);
-  });
+  planners::register_planner("test_ring",
+                             [](const planners::PlannerOptions& o) { return std::make_unique<RingPlanner>(o); });
 }
 
 inline session::SessionOptions test_options() {

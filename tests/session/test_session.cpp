@@ -66,8 +66,12 @@ TEST(SelectiveInsertion, FollowsTheNearestIsoPointsConfidence) {
   Rng rng(1);
   const auto keep = selective_insertion_mask(pts.positions, iso, f, 3.0, rng);
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (pts.positions[i].z() > 0.02) EXPECT_EQ(keep[i], 0) << i;
-    if (pts.positions[i].z() < -0.02) EXPECT_EQ(keep[i], 1) << i;
+    if (pts.positions[i].z() > 0.02) {
+      EXPECT_EQ(keep[i], 0) << i;
+    }
+    if (pts.positions[i].z() < -0.02) {
+      EXPECT_EQ(keep[i], 1) << i;
+    }
   }
   Rng r2(1);
   const auto all = selective_insertion_mask(pts.positions, iso, f, 0.0, r2);  // ρ = 0 keeps everything
@@ -202,12 +206,15 @@ TEST(Session, RegistersScansWithAReportedPoseError) {
   EXPECT_FALSE(rec.registration->degenerate);
   EXPECT_LT((rec.correction.translation() + error).norm(), 0.1 * error.norm());
   EXPECT_LT(rec.registration->rms_after, rec.registration->rms_before);
-  EXPECT_NEAR((rec.registered_pose.position - rec.reported_pose.position).norm(), error.norm(), 0.002);
+  // (A sphere leaves rotations about its centre free, so only the translation is checked above.)
+  EXPECT_TRUE(rec.registered_pose.position.isApprox(rec.correction * rec.reported_pose.position));
   // The inserted points lie on the sphere again.
   const auto& model = s.model_points();
   const auto& ids = model.scalars.get("scan_id");
   for (std::size_t i = 0; i < model.size(); ++i)
-    if (ids[i] == rec.id) EXPECT_NEAR(model.positions[i].norm(), 0.25, 0.001);
+    if (ids[i] == rec.id) {
+      EXPECT_NEAR(model.positions[i].norm(), 0.25, 0.001);
+    }
   fs::remove_all(dir);
 }
 
@@ -394,7 +401,7 @@ TEST(Session, RejectsBadInput) {
   EXPECT_FALSE(fs::exists(dir / "session.json"));
   auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
   EXPECT_THROW(Session::create(dir, ScannerSpec{}, Rig{}, test::test_options()), InputError);
-  EXPECT_THROW(Session::open(dir), InputError);  // locked by `s`
+  EXPECT_THROW(Session::open(dir), InputError);                      // locked by `s`
   EXPECT_THROW(s.next_views(pose_from(Vec3(1, 0, 0))), InputError);  // no scan yet
   PointCloud bad = sphere_scan(Vec3(1, 0, 0), 10, 1);
   bad.positions[3].y() = std::nan("");
@@ -434,4 +441,44 @@ TEST(Options, JsonRoundTripAndUnknownKeys) {
   EXPECT_THROW(session_options_from_json({{"rho", "three"}}), InputError);
   EXPECT_THROW(session_options_from_json({{"nbv", {{"method", "slow"}}}}), InputError);
   EXPECT_THROW(session_options_from_json({{"max_views", -1.5}}), InputError);
+}
+
+// ---- the default pipeline (consolidate → poisson → confidence → poisson planner) ---------------------
+
+TEST(Pipeline, DefaultStagesRunOneIterationAndRegisterTheNextScan) {
+  const auto dir = fresh_dir("pipeline");
+  SessionOptions o;  // planner "poisson", the real stages, small settings to stay fast
+  o.consolidate.wlop.mode = consolidate::WlopMode::off;
+  o.poisson.depth = 6;
+  o.confidence.iso.count = 1500;
+  o.confidence.k = 30;
+  o.nbv.grid_resolution = 32;
+  o.nbv.cells = 4;
+  o.nbv.max_views = 4;
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+  const Vec3 from[] = {{1.2, 0, 0.3}, {-0.6, 1.0, 0.3}, {-0.6, -1.0, 0.3}};
+  for (int i = 0; i < 3; ++i) s.add_scan(sphere_scan(from[i], 4000, 20 + i), pose_from(from[i]));
+  const auto r = s.next_views(pose_from(from[2]));
+  ASSERT_NE(r.reconstruction, nullptr);
+  EXPECT_GT(r.reconstruction->mesh.vertices.size(), 100u);
+  EXPECT_GE(r.reconstruction->mean_f, 0.0);
+  EXPECT_LE(r.reconstruction->mean_f, 1.0);
+  const auto& it = s.iterations().at(0);
+  for (const char* stage : {"consolidate", "poisson", "confidence"}) EXPECT_TRUE(it.seconds.count(stage)) << stage;
+  for (const char* f : {"cloud.ply", "consolidated.ply", "mesh.ply", "iso.ply", "views.json"})
+    EXPECT_TRUE(fs::exists(r.directory / f)) << f;
+  const auto mesh = io::read_mesh(r.directory / "mesh.ply");
+  EXPECT_TRUE(mesh.vertex_scalars.has("f"));
+  EXPECT_TRUE(mesh.vertex_scalars.has("density"));
+  if (!r.stopped) {
+    ASSERT_FALSE(r.views.empty());
+    EXPECT_TRUE(fs::exists(r.directory / "field_slice.png"));
+    for (const auto& v : r.views) EXPECT_TRUE(s.rig().reachable(v.pose));
+    // The next scan is registered to the consolidated model with confidence weights.
+    const auto rec = s.add_scan(sphere_scan(r.views[0].pose.position, 3000, 40), r.views[0].pose);
+    ASSERT_TRUE(rec.registration.has_value());
+    EXPECT_FALSE(rec.registration->degenerate);
+    EXPECT_LT(rec.registration->correction_translation, 0.01);
+  }
+  fs::remove_all(dir);
 }

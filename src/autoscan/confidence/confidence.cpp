@@ -181,14 +181,14 @@ ConfidenceResult ConfidenceEvaluator::score(const IsoPoints& iso, const Triangle
   const std::size_t n = iso.positions.size();
   AUTOSCAN_REQUIRE(n > 0, "confidence: no iso-points to score");
   AUTOSCAN_REQUIRE(iso.inward_normals.size() == n && iso.gradients.size() == n,
-                   "confidence: iso-points have {} positions, {} normals, {} gradients", n,
-                   iso.inward_normals.size(), iso.gradients.size());
+                   "confidence: iso-points have {} positions, {} normals, {} gradients", n, iso.inward_normals.size(),
+                   iso.gradients.size());
   const auto& o = impl_->options;
   Stopwatch sw;
   ConfidenceResult res;
   res.reference_gradient = reference_gradient;
-  res.reference_smoothness = o.reference_smoothness > 0.0 ? o.reference_smoothness
-                                                          : plane_smoothness(o.k, o.theta_divisor);
+  res.reference_smoothness =
+      o.reference_smoothness > 0.0 ? o.reference_smoothness : plane_smoothness(o.k, o.theta_divisor);
   res.spacing = iso.spacing;
   res.candidates = iso.candidates;
   res.max_projection_residual = iso.max_residual;

@@ -1,9 +1,9 @@
 // Iso-points: Poisson-disk sampling of the iso-surface (paper §4.2, [Corsini et al. 2012]) by weighted
 // sample elimination [Yuksel 2015], then Newton projection onto the iso-surface of the field.
-#include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>

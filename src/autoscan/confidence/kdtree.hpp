@@ -1,9 +1,8 @@
 #pragma once
 // Internal: a 3D kd-tree over a vector of points (nanoflann 1.4, pre-1.5 API: SearchParams, squared
 // distances). Query functions are const and thread-safe (nanoflann's contract for built indices).
-#include <nanoflann.hpp>
-
 #include <cstdint>
+#include <nanoflann.hpp>
 #include <vector>
 
 #include "autoscan/core/types.hpp"

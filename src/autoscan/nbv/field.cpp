@@ -15,6 +15,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <atomic>
@@ -326,7 +327,7 @@ struct BoundSoA {
 /// point of cluster i (i < n): interval arithmetic on the distance (w_d) and on the angle between a
 /// point normal and a viewing direction (w_o): the normals lie in a cone (axis m, half-angle theta),
 /// the directions within delta = asin((beta + rho)/D) of the centre direction, so the angle is at
-/// least psi - theta - delta. Branch-free so that the compiler vectorises it.
+/// least psi - theta - delta. Vectorised with Eigen packets (the scalar loop serves n < 4).
 void log_bounds(const BoundSoA& S, std::size_t n, const Vec3& q, double beta, const Weights& W, double* out) {
   const double qx = q.x(), qy = q.y(), qz = q.z(), d_o = W.d_o, isd = W.inv_sd2, iso2 = W.inv_so2;
   const double* cx = S.cx.data();
@@ -339,6 +340,32 @@ void log_bounds(const BoundSoA& S, std::size_t n, const Vec3& q, double beta, co
   const double* ct = S.ct.data();
   const double* st = S.st.data();
   const double* la = S.la.data();
+  using A4 = Eigen::Array4d;
+  using M4 = Eigen::Map<const A4>;
+  // Chunks of 4 (Eigen packets); a last chunk may overlap the previous one (same values rewritten).
+  auto chunk = [&](std::size_t i) {
+    const A4 dx = qx - M4(cx + i), dy = qy - M4(cy + i), dz = qz - M4(cz + i);
+    const A4 D = (dx.square() + dy.square() + dz.square()).sqrt();
+    const A4 invD = 1.0 / D.max(1e-300);
+    const A4 e = beta + M4(rho + i);
+    const A4 rmin = (D - e).max(0.0), rmax = D + e;
+    const A4 gap = (rmin - d_o).max(d_o - rmax).max(0.0);
+    const A4 cos_psi = ((M4(mx + i) * dx + M4(my + i) * dy + M4(mz + i) * dz) * invD).min(1.0).max(-1.0);
+    const A4 sin_psi = (1.0 - cos_psi.square()).max(0.0).sqrt();
+    const A4 sin_d = (e * invD).min(1.0);
+    const A4 cos_d = (1.0 - sin_d.square()).max(0.0).sqrt();
+    const A4 cos_phi = M4(ct + i) * cos_d - M4(st + i) * sin_d;
+    const A4 sin_phi = M4(st + i) * cos_d + M4(ct + i) * sin_d;
+    const A4 cos_a = cos_psi * cos_phi + sin_psi * sin_phi;  // cos(psi - phi)
+    const auto valid = (D > e) && (M4(ct + i) > -1.0) && (sin_phi >= 0.0) && (cos_psi < cos_phi);
+    const A4 Eo = valid.select((1.0 - cos_a).square() * iso2, A4::Zero());
+    Eigen::Map<A4>(out + i) = M4(la + i) - (gap.square() * isd + Eo) * (1.0 - 1e-9) + 1e-12;
+  };
+  if (n >= 4) {
+    for (std::size_t i = 0; i + 4 <= n; i += 4) chunk(i);
+    if (n % 4 != 0) chunk(n - 4);
+    return;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     const double dx = qx - cx[i], dy = qy - cy[i], dz = qz - cz[i];
     const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -460,13 +487,31 @@ void vvf_fast(ViewingField& vf, const IsoData& iso, const RayScene& scene, const
         for (const auto& [vb, t] : todo) {
           if (vb <= log_thr) break;  // sorted: no later cluster can beat `best`
           const Cluster& cl = cs.clusters[static_cast<std::size_t>(list.id[static_cast<std::size_t>(t)])];
-          // Log-domain estimate for every point (vectorised), exact value for the survivors.
-          const double qx = q.x(), qy = q.y(), qz = q.z();
-          for (std::size_t i = cl.begin; i < cl.end; ++i) {
-            const double dx = qx - cs.px[i], dy = qy - cs.py[i], dz = qz - cs.pz[i];
-            const double rr = std::sqrt(dx * dx + dy * dy + dz * dz);
-            const double cth = (cs.nx[i] * dx + cs.ny[i] * dy + cs.nz[i] * dz) / rr;
-            val[i] = cs.loga[i] - ((rr - W.d_o) * (rr - W.d_o) * W.inv_sd2 + (1.0 - cth) * (1.0 - cth) * W.inv_so2);
+          // Log-domain estimate for every point (vectorised in fixed chunks of 4; a last chunk
+          // may overlap the previous one), exact value for the survivors.
+          {
+            using A4 = Eigen::Array4d;
+            using M4 = Eigen::Map<const A4>;
+            const std::size_t nb = cl.end - cl.begin;
+            auto chunk = [&](std::size_t o0) {
+              const A4 dx = q.x() - M4(cs.px.data() + o0), dy = q.y() - M4(cs.py.data() + o0),
+                       dz = q.z() - M4(cs.pz.data() + o0);
+              const A4 rr = (dx.square() + dy.square() + dz.square()).sqrt();
+              const A4 cth = (M4(cs.nx.data() + o0) * dx + M4(cs.ny.data() + o0) * dy + M4(cs.nz.data() + o0) * dz) / rr;
+              Eigen::Map<A4>(val.data() + o0) =
+                  M4(cs.loga.data() + o0) - ((rr - W.d_o).square() * W.inv_sd2 + (1.0 - cth).square() * W.inv_so2);
+            };
+            if (nb >= 4) {
+              for (std::size_t o0 = cl.begin; o0 + 4 <= cl.end; o0 += 4) chunk(o0);
+              if (nb % 4 != 0) chunk(cl.end - 4);
+            } else {
+              for (std::size_t i = cl.begin; i < cl.end; ++i) {
+                const Vec3 d = q - Vec3(cs.px[i], cs.py[i], cs.pz[i]);
+                const double rr = d.norm();
+                const double cth = Vec3(cs.nx[i], cs.ny[i], cs.nz[i]).dot(d) / rr;
+                val[i] = cs.loga[i] - ((rr - W.d_o) * (rr - W.d_o) * W.inv_sd2 + (1.0 - cth) * (1.0 - cth) * W.inv_so2);
+              }
+            }
           }
           pairs += cl.end - cl.begin;
           cand.clear();

@@ -5,6 +5,7 @@
 #include <mutex>
 
 #include "autoscan/core/error.hpp"
+#include "autoscan/planners/baselines.hpp"
 
 namespace autoscan::planners {
 
@@ -57,6 +58,7 @@ struct Registry {
   Registry() {
     // Built-in planners. Baselines (random, sphere, density, curvature, visibility, pvs) are added here.
     factories["poisson"] = [](const PlannerOptions& o) { return std::make_unique<PoissonPlanner>(o); };
+    add_baseline_planners(factories);
   }
 };
 

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numeric>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
@@ -234,15 +235,19 @@ void trim_by_density(TriangleMesh& mesh, double quantile) {
                    quantile);
   if (quantile == 0.0 || mesh.vertices.empty()) return;
   const std::vector<double>& dens = mesh.vertex_scalars.get("density");
-  std::vector<double> sorted = dens;
-  const std::size_t k = static_cast<std::size_t>(quantile * static_cast<double>(sorted.size() - 1));
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-  const double threshold = sorted[k];
+  // Rank the vertices by (density, index) and drop the lowest `quantile` share (ties broken by
+  // index, so that a large zero-density region is trimmed too).
+  std::vector<int> order(mesh.vertices.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return dens[a] != dens[b] ? dens[a] < dens[b] : a < b; });
+  const std::size_t drop = static_cast<std::size_t>(quantile * static_cast<double>(order.size()));
+  std::vector<char> gone(mesh.vertices.size(), 0);
+  for (std::size_t i = 0; i < drop; ++i) gone[order[i]] = 1;
   std::vector<int> remap(mesh.vertices.size(), -1);
   std::vector<Tri> faces;
   faces.reserve(mesh.faces.size());
   for (const Tri& f : mesh.faces)
-    if (dens[f[0]] >= threshold && dens[f[1]] >= threshold && dens[f[2]] >= threshold) faces.push_back(f);
+    if (!gone[f[0]] && !gone[f[1]] && !gone[f[2]]) faces.push_back(f);
   std::vector<std::size_t> keep;
   for (const Tri& f : faces)
     for (int v : f)

@@ -209,7 +209,9 @@ struct Samples {
   std::vector<Vec3> n;            ///< outward unit normals
   std::vector<double> w;          ///< user weights
   std::vector<double> area;       ///< a_p = 1 / density
-  std::vector<std::int8_t> depth; ///< splat depth s_p
+  std::vector<std::int8_t> depth; ///< finest splat depth s_p (the octree is refined to it)
+  std::vector<double> frac;       ///< share of the sample splatted at s_p (the rest at s_p - 1)
+  std::vector<std::int8_t> refine;  ///< depth the octree is refined to around the sample (>= s_p)
   std::vector<std::uint64_t> code;   ///< Morton code at depth D
   std::vector<std::uint32_t> order;  ///< sample indices in Morton order
 };
@@ -310,35 +312,73 @@ void Solver::estimate_density() {
   const double r = 1.0 / nk, r2 = r * r, norm = std::numbers::pi * r2 / 3.0;
   s_.area.assign(N, 0.0);
   s_.depth.assign(N, 0);
+  s_.frac.assign(N, 1.0);
+  s_.refine.assign(N, 0);
   const double spn = opt_.samples_per_node;
   const int min_depth = std::min(opt_.full_depth, D_);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 1024), [&](const auto& rg) {
-    for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
-      const Vec3& u = s_.u[i];
-      int c[3];
-      for (int a = 0; a < 3; ++a) c[a] = std::clamp(static_cast<int>(u[a] * nk), 0, nk - 1);
-      double sum = 0.0;
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
-            if (x < 0 || y < 0 || z < 0 || x >= nk || y >= nk || z >= nk) continue;
-            const int ri = runs.find(morton(x, y, z));
-            if (ri < 0) continue;
-            for (std::uint32_t j = run_begin[ri]; j < run_begin[ri + 1]; ++j) {
-              const std::uint32_t q = s_.order[j];
-              const double d2 = (s_.u[q] - u).squaredNorm();
-              // Only the same side of a thin sheet counts (opposite normals: the other side).
-              if (d2 < r2 && s_.n[q].dot(s_.n[i]) > 0.0) {
-                const double t = 1.0 - d2 / r2;
-                sum += s_.w[q] * t * t;
-              }
+  // Kernel average over the same-side neighbours within r: sum_q w_q phi_q f(q) (and sum of weights).
+  auto neighbourhood = [&](std::size_t i, auto&& f, double* wsum) {
+    const Vec3& u = s_.u[i];
+    int c[3];
+    for (int a = 0; a < 3; ++a) c[a] = std::clamp(static_cast<int>(u[a] * nk), 0, nk - 1);
+    double sum = 0.0, ws = 0.0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
+          if (x < 0 || y < 0 || z < 0 || x >= nk || y >= nk || z >= nk) continue;
+          const int ri = runs.find(morton(x, y, z));
+          if (ri < 0) continue;
+          for (std::uint32_t j = run_begin[ri]; j < run_begin[ri + 1]; ++j) {
+            const std::uint32_t q = s_.order[j];
+            const double d2 = (s_.u[q] - u).squaredNorm();
+            // Only the same side of a thin sheet counts (opposite normals: the other side).
+            if (d2 < r2 && s_.n[q].dot(s_.n[i]) > 0.0) {
+              const double t = 1.0 - d2 / r2;
+              sum += s_.w[q] * t * t * f(q);
+              ws += s_.w[q] * t * t;
             }
           }
-      const double rho = sum / norm;  // > 0: the sample itself contributes w_i
+        }
+    if (wsum) *wsum = ws;
+    return sum;
+  };
+  std::vector<double> logrho(N);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 1024), [&](const auto& rg) {
+    for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+      const double rho = neighbourhood(i, [](std::uint32_t) { return 1.0; }, nullptr) / norm;  // > 0 (itself)
       s_.area[i] = 1.0 / rho;
-      const int sd = static_cast<int>(std::floor(0.5 * std::log2(rho / spn)));
-      s_.depth[i] = static_cast<std::int8_t>(std::clamp(sd, min_depth, D_));
+      logrho[i] = std::log2(rho);
+    }
+  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 1024), [&](const auto& rg) {
+    for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+      // The splat depth follows the density averaged once more over the kernel, so that it changes
+      // along smooth fronts rather than from sample to sample (a patchy octree makes bumps).
+      double ws = 0.0;
+      const double lr = neighbourhood(i, [&](std::uint32_t q) { return logrho[q]; }, &ws) / ws;
+      // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at floor(sd), so
+      // that the kernel width varies smoothly with the density.
+      const double sd = 0.5 * (lr - std::log2(spn));
+      // The octree goes one depth below the finest splat depth, so that the field resolves the
+      // splat kernels everywhere; refining only to the splat depth makes the resolution flip
+      // between neighbours where the density crosses a threshold, and the surface gets bumps (even
+      // spurious handles) there.
+      if (sd >= D_) {
+        s_.depth[i] = static_cast<std::int8_t>(D_);
+        s_.frac[i] = 1.0;
+        s_.refine[i] = static_cast<std::int8_t>(D_);
+      } else if (sd < min_depth) {
+        s_.depth[i] = static_cast<std::int8_t>(min_depth);
+        s_.frac[i] = 1.0;
+        s_.refine[i] = static_cast<std::int8_t>(std::min(D_, min_depth + 1));
+      } else {
+        const int s0 = static_cast<int>(std::floor(sd));
+        const double t = sd - s0;
+        s_.depth[i] = static_cast<std::int8_t>(t > 0.0 ? s0 + 1 : s0);
+        s_.frac[i] = t > 0.0 ? t : 1.0;
+        s_.refine[i] = static_cast<std::int8_t>(std::min(D_, s0 + 2));
+      }
     }
   });
   // Density output grid: corners of the depth-k cells that hold samples, trilinear splat of w_p
@@ -398,7 +438,7 @@ void Solver::build_level_cells(Level& L) {
   // (all corners stored), as PoissonRecon evaluates every point constraint at every depth.
   std::vector<std::uint8_t> complete(s_.u.size(), 1);
   tbb::parallel_for(std::size_t{0}, s_.u.size(), [&](std::size_t i) {
-    if (s_.depth[i] >= L.depth) return;
+    if (s_.refine[i] >= L.depth) return;
     int x[3];
     for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(std::floor(s_.u[i][a] * L.n)), 0, L.n - 1);
     for (int q = 0; q < 8; ++q)
@@ -458,7 +498,7 @@ void Solver::build_levels() {
     } else {
       std::vector<std::uint64_t> cells;
       for (std::size_t i = 0; i < s_.u.size(); ++i) {
-        if (s_.depth[i] < d) continue;
+        if (s_.refine[i] < d) continue;
         int x[3];
         for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(std::floor(s_.u[i][a] * L.n)), 0, L.n - 1);
         cells.push_back(pack(x[0], x[1], x[2]));
@@ -477,7 +517,7 @@ void Solver::build_levels() {
     }
     L.index.build(L.keys);
     build_level_cells(L);
-    for (std::uint32_t i : L.samples) L.splat += (s_.depth[i] == d);
+    for (std::uint32_t i : L.samples) L.splat += (s_.depth[i] == d) || (s_.depth[i] == d + 1 && s_.frac[i] < 1.0);
   }
 }
 
@@ -513,10 +553,11 @@ void Solver::compute_rhs() {
         const std::int32_t* idx = &L.corners[c * 8];
         for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
           const std::uint32_t p = L.samples[j];
-          if (s_.depth[p] != d) continue;
+          const double share = s_.depth[p] == d ? s_.frac[p] : (s_.depth[p] == d + 1 ? 1.0 - s_.frac[p] : 0.0);
+          if (share == 0.0) continue;
           double w[8];
           weights(L, s_.u[p], w);
-          const Vec3 cp = -s_.w[p] * s_.area[p] * inv_h3 * s_.n[p];
+          const Vec3 cp = -share * s_.w[p] * s_.area[p] * inv_h3 * s_.n[p];
           for (int q = 0; q < 8; ++q) v[idx[q]] += w[q] * cp;
         }
       });

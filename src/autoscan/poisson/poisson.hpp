@@ -137,7 +137,7 @@ PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& options
 /// passes near a seed. Adds the vertex scalar "density".
 TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> seeds);
 
-/// Removes the vertices whose "density" is below the `quantile` of the vertex densities, the faces
+/// Removes the `quantile` share of the vertices with the lowest "density" (ties by index), the faces
 /// that use them and the vertices left unused. quantile in [0, 1).
 void trim_by_density(TriangleMesh& mesh, double quantile);
 

@@ -8,9 +8,8 @@
 //   point-to-point:  sum_i w_j  |R p_i + t - q_j|^2              (fallback without normals)
 // linearised in the rotation (point-to-plane) or in closed form (weighted Kabsch, point-to-point).
 // Deterministic: the correspondence search is parallel but every reduction runs in index order.
-#include <nlohmann/json_fwd.hpp>
-
 #include <Eigen/Geometry>
+#include <nlohmann/json_fwd.hpp>
 #include <span>
 #include <string>
 
@@ -41,18 +40,18 @@ struct IcpResult {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
   /// The correction applied on top of `initial`: transform = correction * initial.
   Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
-  double correction_translation = 0.0;  ///< |translation of `correction`|
+  double correction_translation = 0.0;   ///< |translation of `correction`|
   double correction_rotation_deg = 0.0;  ///< rotation angle of `correction` (degrees)
-  double rms_before = 0.0;  ///< RMS residual of the trimmed pairs at `initial` (metric of `method`)
-  double rms_after = 0.0;   ///< same at `transform`, same distance threshold
-  double inlier_fraction = 0.0;  ///< share of (sub-sampled) source points with a kept pair at the end
-  std::size_t correspondences = 0;  ///< kept pairs in the last iteration
+  double rms_before = 0.0;               ///< RMS residual of the trimmed pairs at `initial` (metric of `method`)
+  double rms_after = 0.0;                ///< same at `transform`, same distance threshold
+  double inlier_fraction = 0.0;          ///< share of (sub-sampled) source points with a kept pair at the end
+  std::size_t correspondences = 0;       ///< kept pairs in the last iteration
   std::size_t source_points_used = 0;
   int iterations = 0;
-  bool converged = false;       ///< the update fell below the tolerances before max_iterations
-  bool degenerate = false;      ///< too few pairs or a singular system: `transform` = `initial`
-  bool uniform_weights = false;  ///< all kept pairs had zero weight, so weights were ignored
-  std::string method;            ///< "point_to_plane" or "point_to_point"
+  bool converged = false;                    ///< the update fell below the tolerances before max_iterations
+  bool degenerate = false;                   ///< too few pairs or a singular system: `transform` = `initial`
+  bool uniform_weights = false;              ///< all kept pairs had zero weight, so weights were ignored
+  std::string method;                        ///< "point_to_plane" or "point_to_point"
   double max_correspondence_distance = 0.0;  ///< the threshold used
   double seconds = 0.0;
 };

@@ -14,9 +14,9 @@
 namespace autoscan::scanner {
 
 struct BlindScanOptions {
-  int views = 8;  ///< total number of views, dealt round-robin over the rings
+  int views = 8;                                     ///< total number of views, dealt round-robin over the rings
   std::vector<double> elevations_deg = {0.0, 30.0};  ///< one ring per elevation (degrees above the XY plane)
-  double distance = 0.0;            ///< distance from the centre; 0 = the spec's d_o (Figure 2(b))
+  double distance = 0.0;                             ///< distance from the centre; 0 = the spec's d_o (Figure 2(b))
   double azimuth_offset_deg = 0.0;  ///< azimuth of the first view; ring k is staggered by half a step for odd k
   std::uint64_t first_scan_id = 0;  ///< scan ids are first_scan_id, first_scan_id + 1, ...
   /// Throws InputError for views < 1, no rings, elevations outside [-90, 90], a negative or
@@ -29,18 +29,18 @@ struct BlindScanOptions {
 std::vector<Pose> blind_scan_poses(const AABB& object, const ScannerSpec& spec, const BlindScanOptions& options = {});
 
 struct BlindScanResult {
-  PointCloud cloud;                          ///< all scans merged (world frame, scan_id per point)
-  std::vector<Pose> poses;                   ///< commanded poses, one per scan
-  std::vector<ScanDiagnostics> scans;        ///< per-scan diagnostics
+  PointCloud cloud;                              ///< all scans merged (world frame, scan_id per point)
+  std::vector<Pose> poses;                       ///< commanded poses, one per scan
+  std::vector<ScanDiagnostics> scans;            ///< per-scan diagnostics
   std::vector<Eigen::Isometry3d> misalignments;  ///< per-scan pose error (identity without noise)
-  std::size_t rays_cast = 0;                 ///< camera rays over all scans
-  std::size_t shadow_rays = 0;               ///< projector rays over all scans
+  std::size_t rays_cast = 0;                     ///< camera rays over all scans
+  std::size_t shadow_rays = 0;                   ///< projector rays over all scans
   double seconds = 0.0;
 };
 
 /// Scans the scanner's mesh from blind_scan_poses(scanner.bounds(), ...), with noise from `seed`.
 /// Throws InputError if a view is unreachable for the scanner's rig or inside the mesh.
-BlindScanResult blind_scan(const VirtualScanner& scanner, const BlindScanOptions& options = {},
-                           std::uint64_t seed = 42, const ProgressCallback& progress = {});
+BlindScanResult blind_scan(const VirtualScanner& scanner, const BlindScanOptions& options = {}, std::uint64_t seed = 42,
+                           const ProgressCallback& progress = {});
 
 }  // namespace autoscan::scanner

@@ -106,7 +106,8 @@ void VirtualScanner::Impl::intersect(int n, const Vec3& org, const Vec3* dirs, u
       rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
     rtcIntersect16(valid, scene.get(), &ctx, &rh);
-    for (int i = 0; i < n; ++i) prim[i] = rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : rh.hit.primID[i];
+    for (int i = 0; i < n; ++i)
+      prim[i] = rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : rh.hit.primID[i];
     return;
   }
   for (int i = 0; i < n; ++i) {
@@ -257,8 +258,8 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
   rays.rot = world_from_true.linear();
   rays.origin_local = world_from_true.translation() - shift;
   rays.projector_local = rays.origin_local + spec.baseline * rays.rot.col(0);
-  rays.projector_rot = projector_rotation(rays.projector_local,
-                                          rays.origin_local + spec.optimal_distance() * rays.rot.col(2), rays.rot);
+  rays.projector_rot =
+      projector_rotation(rays.projector_local, rays.origin_local + spec.optimal_distance() * rays.rot.col(2), rays.rot);
 
   const NoiseSpec& noise = spec.noise;
   const double mag = noise.magnitude;
@@ -349,8 +350,8 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
             delta = u_disp * noise.outlier_range;
             ++cnt.outliers;
           }
-          const std::size_t pix = static_cast<std::size_t>(row) * static_cast<std::size_t>(width) +
-                                  static_cast<std::size_t>(col0 + i);
+          const std::size_t pix =
+              static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col0 + i);
           pc[pix] = cam_dir[i] * (z * (1.0 + delta / r));
           sigma[pix] = static_cast<float>(sd);
           valid[pix] = 1;
@@ -366,18 +367,17 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     for (int row = rows.begin(); row != rows.end(); ++row) {
       for (int col = 0; col < width; ++col) {
-        const std::size_t p = static_cast<std::size_t>(row) * static_cast<std::size_t>(width) +
-                              static_cast<std::size_t>(col);
+        const std::size_t p =
+            static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col);
         if (!valid[p]) continue;
         const Vec3& P = pc[p];
         auto neighbour = [&](int c, int r, int step) -> const Vec3* {
           if (c < 0 || r < 0 || c >= width || r >= height) return nullptr;
-          const std::size_t q = static_cast<std::size_t>(r) * static_cast<std::size_t>(width) +
-                                static_cast<std::size_t>(c);
+          const std::size_t q =
+              static_cast<std::size_t>(r) * static_cast<std::size_t>(width) + static_cast<std::size_t>(c);
           if (!valid[q]) return nullptr;
           const double s2 = double(sigma[p]) * sigma[p] + double(sigma[q]) * sigma[q];
-          const double limit =
-              options.discontinuity_factor * (P.z() * jump_per_pixel * step + 3.0 * std::sqrt(s2));
+          const double limit = options.discontinuity_factor * (P.z() * jump_per_pixel * step + 3.0 * std::sqrt(s2));
           return std::abs(pc[q].z() - P.z()) <= limit ? &pc[q] : nullptr;
         };
         auto difference = [&](int dc, int dr, Vec3& out) {
@@ -455,8 +455,7 @@ VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec
   AUTOSCAN_REQUIRE(mesh.vertices.size() < std::numeric_limits<unsigned>::max() &&
                        mesh.faces.size() < std::numeric_limits<unsigned>::max() / 2,
                    "mesh: too large for the ray tracer ({} triangles)", mesh.faces.size());
-  AUTOSCAN_REQUIRE(options.normal_step >= 1, "scanner options: normal_step must be >= 1, got {}",
-                   options.normal_step);
+  AUTOSCAN_REQUIRE(options.normal_step >= 1, "scanner options: normal_step must be >= 1, got {}", options.normal_step);
   AUTOSCAN_REQUIRE(options.discontinuity_factor > 0 && std::isfinite(options.discontinuity_factor),
                    "scanner options: discontinuity_factor must be positive");
   AUTOSCAN_REQUIRE(options.shadow_epsilon >= 0 && options.shadow_epsilon < 1,
@@ -498,8 +497,8 @@ VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec
   check_device(s.device.get(), "creating the geometry");
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                          3 * sizeof(float), s.vertices.size()));
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                            3 * sizeof(unsigned), s.faces.size()));
+  auto* ib = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), s.faces.size()));
   if (!vb || !ib) {
     rtcReleaseGeometry(geom);
     check_device(s.device.get(), "allocating the mesh buffers");
@@ -525,11 +524,10 @@ bool VirtualScanner::inside(const Vec3& point) const {
   const Impl& s = *impl_;
   if (!s.box.contains(point)) return false;
   // Fixed, "irrational" directions so that edges and vertices are rarely hit exactly.
-  static const std::array<Vec3, 5> dirs = {Vec3(0.5773, 0.5774, 0.5775).normalized(),
-                                           Vec3(-0.8017, 0.2673, 0.5345).normalized(),
-                                           Vec3(0.1361, -0.9526, 0.2722).normalized(),
-                                           Vec3(-0.3015, -0.3015, -0.9045).normalized(),
-                                           Vec3(0.7071, -0.1414, -0.6931).normalized()};
+  static const std::array<Vec3, 5> dirs = {
+      Vec3(0.5773, 0.5774, 0.5775).normalized(), Vec3(-0.8017, 0.2673, 0.5345).normalized(),
+      Vec3(0.1361, -0.9526, 0.2722).normalized(), Vec3(-0.3015, -0.3015, -0.9045).normalized(),
+      Vec3(0.7071, -0.1414, -0.6931).normalized()};
   int odd = 0;
   for (const auto& d : dirs) odd += s.crossings(point - s.shift, d) % 2;
   return odd >= 4;

@@ -22,12 +22,11 @@
 //     misaligned by `ScanResult::misalignment` (reported = misalignment · true).
 // Results are deterministic in (seed, scan id) whatever the number of threads: pixel rows draw from
 // Rng(seed).stream(scan_id).stream(row + 1), the pose error from ….stream(0).
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
@@ -46,9 +45,9 @@ enum class RayMode {
 /// Options of the virtual scanner that are not properties of the scanner itself (those are in
 /// ScannerSpec).
 struct VirtualScannerOptions {
-  Rig rig;                            ///< poses outside the rig's reach are refused (InputError)
+  Rig rig;                              ///< poses outside the rig's reach are refused (InputError)
   RayMode ray_mode = RayMode::packets;  ///< packets or single rays
-  bool check_pose_inside = true;      ///< refuse a camera position inside the (closed) mesh
+  bool check_pose_inside = true;        ///< refuse a camera position inside the (closed) mesh
   /// Normals come from the range image: cross product of the points `normal_step` pixels left/right
   /// and up/down (central differences, one-sided at edges and depth discontinuities).
   int normal_step = 1;
@@ -64,17 +63,17 @@ struct VirtualScannerOptions {
 /// Counts and timings of one scan. Every camera ray ends in exactly one of: miss, a point, or one of
 /// the rejected_* counters (the first rule that failed, in this order).
 struct ScanDiagnostics {
-  std::size_t rays_cast = 0;        ///< camera rays (width × height)
-  std::size_t shadow_rays = 0;      ///< projector (occlusion) rays
-  std::size_t hits = 0;             ///< camera rays that hit the mesh
-  std::size_t points = 0;           ///< points kept
-  std::size_t rejected_range = 0;   ///< hit outside [near, far]
-  std::size_t rejected_incidence = 0;  ///< camera incidence above max_incidence_deg
-  std::size_t rejected_projector_fov = 0;  ///< hit outside the projector's field of view
+  std::size_t rays_cast = 0;                     ///< camera rays (width × height)
+  std::size_t shadow_rays = 0;                   ///< projector (occlusion) rays
+  std::size_t hits = 0;                          ///< camera rays that hit the mesh
+  std::size_t points = 0;                        ///< points kept
+  std::size_t rejected_range = 0;                ///< hit outside [near, far]
+  std::size_t rejected_incidence = 0;            ///< camera incidence above max_incidence_deg
+  std::size_t rejected_projector_fov = 0;        ///< hit outside the projector's field of view
   std::size_t rejected_projector_incidence = 0;  ///< projector ray above max_incidence_deg (or behind)
-  std::size_t rejected_projector_shadow = 0;  ///< projector ray occluded
-  std::size_t outliers = 0;          ///< kept points turned into outliers by the noise model
-  double seconds = 0.0;              ///< wall time of the scan
+  std::size_t rejected_projector_shadow = 0;     ///< projector ray occluded
+  std::size_t outliers = 0;                      ///< kept points turned into outliers by the noise model
+  double seconds = 0.0;                          ///< wall time of the scan
 };
 
 /// One scan.
@@ -113,8 +112,7 @@ class VirtualScanner {
   /// Scans with the scanner physically at `actual` while reporting in `commanded`'s frame (a pose
   /// error chosen by the caller; the spec's pose-error noise is not added). Depth noise and outliers
   /// as in scan().
-  ScanResult scan_from(const Pose& commanded, const Pose& actual, std::uint64_t scan_id,
-                       std::uint64_t seed = 42) const;
+  ScanResult scan_from(const Pose& commanded, const Pose& actual, std::uint64_t scan_id, std::uint64_t seed = 42) const;
 
   /// True when `point` is inside the mesh (parity of ray crossings, majority over 5 directions).
   /// Meaningful for closed meshes; an open mesh rarely gives a consistent odd parity.

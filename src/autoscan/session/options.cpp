@@ -144,7 +144,9 @@ struct EnumNames;
 template <>
 struct EnumNames<consolidate::WlopMode> {
   static constexpr std::pair<consolidate::WlopMode, const char*> values[] = {
-      {consolidate::WlopMode::automatic, "automatic"}, {consolidate::WlopMode::on, "on"}, {consolidate::WlopMode::off, "off"}};
+      {consolidate::WlopMode::automatic, "automatic"},
+      {consolidate::WlopMode::on, "on"},
+      {consolidate::WlopMode::off, "off"}};
 };
 template <>
 struct EnumNames<consolidate::Orientation> {
@@ -164,7 +166,9 @@ struct Probe {
   void operator()(const char*, T&) {}
 };
 template <class T>
-concept HasFields = requires(T& t, Probe& p) { fields(t, p); };
+concept HasFields = requires(T& t, Probe& p) {
+  fields(t, p);
+};
 
 // ---- writer ---------------------------------------------------------------------------------------
 struct Writer {

@@ -1,8 +1,7 @@
 #pragma once
 // The session's parameters: one struct holding every stage's options, persisted in session.json.
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "autoscan/confidence/confidence.hpp"
@@ -14,21 +13,21 @@
 namespace autoscan::session {
 
 struct SessionOptions {
-  std::string planner = "poisson";  ///< planners::make_planner name
+  std::string planner = "poisson";                           ///< planners::make_planner name
   nlohmann::json planner_params = nlohmann::json::object();  ///< planner-specific settings
-  consolidate::ConsolidateOptions consolidate;  ///< §4.1 outliers, WLOP, normals
-  poisson::PoissonOptions poisson;              ///< §4.1 screened Poisson (depth, screening...)
-  confidence::ConfidenceOptions confidence;     ///< §4.2, Eq. 1-3 (K = 100)
-  nbv::NbvOptions nbv;                          ///< §5.1-5.2, Eq. 4-5 (100³ grid, σ = 25°)
-  registration::IcpOptions icp;                 ///< §5.3 weighted ICP
-  bool register_scans = true;         ///< §5.3: register each scan to the model (weighted ICP) once a model exists
-  bool selective_insertion = true;    ///< Eq. 6: insert a point with probability (1 − f(s_k))^ρ; false inserts all
-                                      ///< (when the goal is a mesh, not a point set)
-  double rho = 3.0;                   ///< Eq. 6: ρ (paper: 3)
-  double stop_threshold = 0.005;      ///< §5.3: stop when |mean f_k − mean f_{k−1}| < this (paper: 0.005)
-  int max_iterations = 15;            ///< budget of iterations (reconstructions); the last one only assesses
-  int max_views = 200;                ///< budget of planned views over the session (Table 2: up to ~200)
-  std::uint64_t seed = 42;            ///< seeds selective insertion and the planner's stream
+  consolidate::ConsolidateOptions consolidate;               ///< §4.1 outliers, WLOP, normals
+  poisson::PoissonOptions poisson;                           ///< §4.1 screened Poisson (depth, screening...)
+  confidence::ConfidenceOptions confidence;                  ///< §4.2, Eq. 1-3 (K = 100)
+  nbv::NbvOptions nbv;                                       ///< §5.1-5.2, Eq. 4-5 (100³ grid, σ = 25°)
+  registration::IcpOptions icp;                              ///< §5.3 weighted ICP
+  bool register_scans = true;       ///< §5.3: register each scan to the model (weighted ICP) once a model exists
+  bool selective_insertion = true;  ///< Eq. 6: insert a point with probability (1 − f(s_k))^ρ; false inserts all
+                                    ///< (when the goal is a mesh, not a point set)
+  double rho = 3.0;                 ///< Eq. 6: ρ (paper: 3)
+  double stop_threshold = 0.005;    ///< §5.3: stop when |mean f_k − mean f_{k−1}| < this (paper: 0.005)
+  int max_iterations = 15;          ///< budget of iterations (reconstructions); the last one only assesses
+  int max_views = 200;              ///< budget of planned views over the session (Table 2: up to ~200)
+  std::uint64_t seed = 42;          ///< seeds selective insertion and the planner's stream
 
   /// Throws InputError naming the option for values out of range.
   void validate() const;

@@ -34,12 +34,9 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   AUTOSCAN_CHECK(!pr.mesh.empty(), "reconstruction: the Poisson iso-surface is empty");
   r.field = pr.field;
   r.reference_gradient = pr.field->reference_gradient();
-  r.diagnostics["poisson"] = {{"depth", pr.field->depth()},
-                              {"finest_depth", pr.diagnostics.finest_depth},
-                              {"points", pr.diagnostics.points},
-                              {"vertices", pr.mesh.vertices.size()},
-                              {"faces", pr.mesh.faces.size()},
-                              {"reference_gradient", r.reference_gradient}};
+  r.diagnostics["poisson"] = {{"depth", pr.field->depth()},      {"finest_depth", pr.diagnostics.finest_depth},
+                              {"points", pr.diagnostics.points}, {"vertices", pr.mesh.vertices.size()},
+                              {"faces", pr.mesh.faces.size()},   {"reference_gradient", r.reference_gradient}};
 
   // §4.2: iso-points, f_g (Eq. 1), f_s (Eq. 2) against the raw points, f (Eq. 3).
   clock.reset();

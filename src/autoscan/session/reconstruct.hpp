@@ -3,11 +3,10 @@
 // (§4.1) and assessed on the iso-surface (§4.2). The session calls a Reconstructor for it; the
 // default one chains the consolidate, poisson and confidence stages, and tests or drivers with
 // their own reconstruction may substitute another (Session::set_reconstructor).
-#include <nlohmann/json.hpp>
-
 #include <functional>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "autoscan/core/implicit.hpp"
@@ -19,23 +18,23 @@
 namespace autoscan::session {
 
 struct Reconstruction {
-  PointCloud consolidated;  ///< oriented points (unit outward normals): the registration target
+  PointCloud consolidated;                     ///< oriented points (unit outward normals): the registration target
   std::shared_ptr<const ImplicitField> field;  ///< the Poisson field (may be null for custom reconstructors)
-  double reference_gradient = 0.0;  ///< normalises f_g (confidence/confidence.hpp)
-  TriangleMesh mesh;        ///< iso-surface; vertex scalars f, f_g, f_s (and "density" when known),
-                            ///< vertex colours by f
-  PointCloud iso_points;    ///< s_k with outward normals, scalars f, f_g, f_s, colours by f
-  double mean_f = 0.0;      ///< global confidence: mean of f over the iso-points (the stop rule's figure)
+  double reference_gradient = 0.0;             ///< normalises f_g (confidence/confidence.hpp)
+  TriangleMesh mesh;                           ///< iso-surface; vertex scalars f, f_g, f_s (and "density" when known),
+                                               ///< vertex colours by f
+  PointCloud iso_points;                       ///< s_k with outward normals, scalars f, f_g, f_s, colours by f
+  double mean_f = 0.0;  ///< global confidence: mean of f over the iso-points (the stop rule's figure)
   double mean_f_g = 0.0;
   double mean_f_s = 0.0;
-  std::map<std::string, double> seconds;  ///< per stage: "consolidate", "poisson", "confidence"
+  std::map<std::string, double> seconds;                  ///< per stage: "consolidate", "poisson", "confidence"
   nlohmann::json diagnostics = nlohmann::json::object();  ///< per-stage details
 };
 
 /// Builds the model of one iteration from every inserted raw point (world frame, scalars scan_id and
 /// sensor_x/y/z). Must be deterministic for equal inputs and options.
-using Reconstructor =
-    std::function<Reconstruction(const PointCloud& raw, const SessionOptions& options, const ProgressCallback& progress)>;
+using Reconstructor = std::function<Reconstruction(const PointCloud& raw, const SessionOptions& options,
+                                                   const ProgressCallback& progress)>;
 
 /// The default: consolidate::consolidate → poisson::reconstruct → confidence::assess.
 /// Throws InputError when the points are too few or degenerate for a model.

@@ -275,7 +275,7 @@ struct Session::Impl {
 
   std::vector<ScanRecord> scans;
   std::vector<IterationRecord> iterations;
-  PointCloud model;                  // every inserted point, registered
+  PointCloud model;  // every inserted point, registered
   std::size_t model_size_at_last_iteration = 0;
   std::optional<Pose> current_pose;
   int views_planned = 0;
@@ -283,7 +283,7 @@ struct Session::Impl {
   std::string stop_reason;
 
   // The registration target and Eq. 6's confidence, from the last iteration (reloaded on open).
-  PointCloud target;                 // consolidated points with normals
+  PointCloud target;                  // consolidated points with normals
   std::vector<double> target_weight;  // f of the iso-point nearest to each target point
   std::vector<Vec3> iso_positions;
   std::vector<double> iso_f;
@@ -367,7 +367,8 @@ struct Session::Impl {
     if (options.register_scans && has_model() && !scan.empty()) {
       const auto r = registration::icp(scan, target, target_weight, options.icp);
       rec.registration = r;
-      if (!r.degenerate) rec.correction = r.correction;
+      if (!r.degenerate)
+        rec.correction = r.correction;
       else
         log::warn("scan {}: registration found too few correspondences; the reported pose is kept", rec.id);
     }
@@ -421,8 +422,7 @@ Session Session::create(const fs::path& dir, const ScannerSpec& scanner, const R
 Session Session::open(const fs::path& dir) {
   std::error_code ec;
   AUTOSCAN_REQUIRE(fs::is_directory(dir, ec), "{}: no such session directory", dir.string());
-  AUTOSCAN_REQUIRE(fs::exists(dir / "session.json", ec), "{}: not a session directory (no session.json)",
-                   dir.string());
+  AUTOSCAN_REQUIRE(fs::exists(dir / "session.json", ec), "{}: not a session directory (no session.json)", dir.string());
   auto impl = std::make_unique<Impl>();
   impl->dir = dir;
   impl->lock();
@@ -445,7 +445,8 @@ Session Session::open(const fs::path& dir) {
     impl->current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
   impl->views_planned = j.value("views_planned", 0);
   impl->stopped = j.value("stopped", false);
-  impl->stop_reason = j.contains("stop_reason") && j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
+  impl->stop_reason =
+      j.contains("stop_reason") && j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
   for (std::size_t i = 0; i < j.at("iterations").size(); ++i)
     impl->iterations.push_back(iteration_from_json(j.at("iterations")[i], fmt::format("{}: iterations[{}]", where, i)));
   impl->make_planner_object();
@@ -487,8 +488,8 @@ Session Session::open(const fs::path& dir) {
       AUTOSCAN_REQUIRE(fs::exists(file, ec), "{}: acknowledged scan file is missing", file.string());
       scan = io::read_point_cloud(file);
     }
-    AUTOSCAN_REQUIRE(scan.size() == rec.points, "{}: holds {} points, session.json says {}", file.string(),
-                     scan.size(), rec.points);
+    AUTOSCAN_REQUIRE(scan.size() == rec.points, "{}: holds {} points, session.json says {}", file.string(), scan.size(),
+                     rec.points);
     std::vector<char> keep(scan.size(), 1);
     if (const auto* ins = scan.scalars.find("inserted")) {
       for (std::size_t k = 0; k < scan.size(); ++k) keep[k] = (*ins)[k] != 0.0 ? 1 : 0;
@@ -653,8 +654,11 @@ NextViews Session::next_views(const Pose& current) {
   io::write_point_cloud(idir / "consolidated.ply", rec->consolidated, exact_ply());
   if (!rec->mesh.empty()) io::write_mesh(idir / "mesh.ply", rec->mesh);
   io::write_point_cloud(idir / "iso.ply", rec->iso_points, exact_ply());
-  json extra = {{"iteration", k}, {"planner", m.options.planner}, {"stopped", it.stopped},
-                {"stop_reason", it.stopped ? json(it.stop_reason) : json(nullptr)}, {"mean_f", it.mean_f}};
+  json extra = {{"iteration", k},
+                {"planner", m.options.planner},
+                {"stopped", it.stopped},
+                {"stop_reason", it.stopped ? json(it.stop_reason) : json(nullptr)},
+                {"mean_f", it.mean_f}};
   write_text_atomic(idir / "views.json", planners::views_to_json(plan, extra).dump(1) + "\n");
   if (plan.write_artifacts) plan.write_artifacts(idir);
   it.seconds["write"] = wclock.seconds();
@@ -713,8 +717,6 @@ void Session::set_reconstructor(Reconstructor r) {
   AUTOSCAN_REQUIRE(static_cast<bool>(r), "set_reconstructor: empty reconstructor");
   impl_->reconstructor = std::move(r);
 }
-void Session::set_progress(ProgressCallback cb) {
-  impl_->progress = std::move(cb);
-}
+void Session::set_progress(ProgressCallback cb) { impl_->progress = std::move(cb); }
 
 }  // namespace autoscan::session

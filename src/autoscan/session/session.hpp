@@ -15,13 +15,12 @@
 // any moment (kill -9) loses no acknowledged scan (one for which add_scan returned) and leaves no
 // corrupt file. The session never depends on a simulator: the simulator is one more driver.
 // Not thread-safe; one process per directory (a lock file enforces it).
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -45,14 +44,14 @@ namespace autoscan::session {
 
 /// What add_scan did.
 struct ScanRecord {
-  int id = 0;                    ///< scans/scan_NNNN.ply
-  std::size_t points = 0;        ///< points received
-  std::size_t inserted = 0;      ///< points inserted into the model (Eq. 6)
-  int model_iteration = -1;      ///< iteration whose model the scan was registered to (-1: none yet)
-  Pose reported_pose;            ///< as the robot reported it
-  Pose registered_pose;          ///< after the registration correction
+  int id = 0;                ///< scans/scan_NNNN.ply
+  std::size_t points = 0;    ///< points received
+  std::size_t inserted = 0;  ///< points inserted into the model (Eq. 6)
+  int model_iteration = -1;  ///< iteration whose model the scan was registered to (-1: none yet)
+  Pose reported_pose;        ///< as the robot reported it
+  Pose registered_pose;      ///< after the registration correction
   Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();  ///< applied to the scan (world frame)
-  std::optional<registration::IcpResult> registration;  ///< when ICP ran
+  std::optional<registration::IcpResult> registration;           ///< when ICP ran
   double seconds_registration = 0.0;
   double seconds_insertion = 0.0;
 };
@@ -60,28 +59,28 @@ struct ScanRecord {
 /// One iteration's figures (session.json "iterations"; see docs/session-format.md).
 struct IterationRecord {
   int index = 0;
-  std::vector<int> scans;        ///< scan ids added since the previous iteration
-  std::size_t raw_points = 0;    ///< points in the model (after selective insertion)
+  std::vector<int> scans;      ///< scan ids added since the previous iteration
+  std::size_t raw_points = 0;  ///< points in the model (after selective insertion)
   std::size_t consolidated_points = 0;
   std::size_t mesh_vertices = 0;
   std::size_t iso_points = 0;
-  int views = 0;                 ///< views returned
+  int views = 0;  ///< views returned
   double mean_f = 0.0, mean_f_g = 0.0, mean_f_s = 0.0;
-  double delta_mean_f = 0.0;     ///< mean_f − previous mean_f (0 for the first iteration)
+  double delta_mean_f = 0.0;  ///< mean_f − previous mean_f (0 for the first iteration)
   double path_length = 0.0;
   std::map<std::string, double> seconds;  ///< consolidate, poisson, confidence, plan, registration, insertion, write
   nlohmann::json planner_diagnostics = nlohmann::json::object();
-  nlohmann::json truth;          ///< null, or what a driver that knows the truth attached
+  nlohmann::json truth;  ///< null, or what a driver that knows the truth attached
   bool stopped = false;
-  std::string stop_reason;       ///< "", "converged", "max_iterations", "max_views", "no_views"
+  std::string stop_reason;  ///< "", "converged", "max_iterations", "max_views", "no_views"
 };
 
 struct NextViews {
   std::vector<planners::PlannedView> views;  ///< ordered into a path from `current`
   double path_length = 0.0;
   bool stopped = false;
-  std::string reason;            ///< why it stopped (see IterationRecord::stop_reason)
-  int iteration = -1;            ///< the iteration this answer comes from
+  std::string reason;               ///< why it stopped (see IterationRecord::stop_reason)
+  int iteration = -1;               ///< the iteration this answer comes from
   std::filesystem::path directory;  ///< iterations/iter_KKK
   /// The model this iteration built (mesh, iso-points, field...), for drivers that evaluate it
   /// against a truth; null when the answer was replayed (the session had already stopped).
@@ -99,7 +98,7 @@ struct SessionStatus {
   std::string stop_reason;
   std::optional<double> last_mean_f;
   std::optional<Pose> current_pose;
-  int pending_scans = 0;         ///< scans added since the last iteration
+  int pending_scans = 0;  ///< scans added since the last iteration
 };
 nlohmann::json to_json(const SessionStatus& s);
 nlohmann::json to_json(const IterationRecord& r);

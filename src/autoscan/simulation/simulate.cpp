@@ -181,6 +181,12 @@ class Loop {
 
   std::uint64_t scan_seed() const { return opts_.session.seed; }
 
+  // Progress of the loop itself; a callback returning false stops the run (Cancelled), leaving a
+  // directory that resume() continues.
+  void tick(const char* stage, double fraction) {
+    if (progress_ && !progress_(stage, fraction)) throw Cancelled(stage);
+  }
+
   // Scans `pose` and adds it; false when the scanner refuses the pose (unreachable, inside).
   bool scan_and_add(session::Session& s, const Pose& pose) {
     const auto id = static_cast<std::uint64_t>(s.scans().size());
@@ -207,7 +213,7 @@ class Loop {
                                     [&](const session::ScanRecord& r) { return same_position(r.reported_pose, poses[i]); });
       if (done) continue;
       scan_and_add(s, poses[i]);
-      if (progress_) progress_("blind scan", static_cast<double>(i + 1) / static_cast<double>(poses.size()));
+      tick("blind scan", static_cast<double>(i + 1) / static_cast<double>(poses.size()));
     }
     AUTOSCAN_CHECK(!s.scans().empty(), "simulate: the blind scan captured nothing (is the object within range?)");
   }
@@ -286,7 +292,7 @@ class Loop {
         if (done) continue;
         if (views_done(s) >= max_views) break;
         if (scan_and_add(s, view.pose)) maybe_checkpoint(s);
-        if (progress_) progress_("next-best views", std::min(1.0, views_done(s) / static_cast<double>(max_views)));
+        tick("next-best views", std::min(1.0, views_done(s) / static_cast<double>(max_views)));
       }
       const auto step = s.next_views();
       attach_truth_if_missing(s, step.reconstruction ? &step.reconstruction->mesh : nullptr);
@@ -304,8 +310,12 @@ class Loop {
 
 }  // namespace
 
-SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const SimulateOptions& options,
+SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const SimulateOptions& options_in,
                         const ProgressCallback& progress) {
+  SimulateOptions options = options_in;
+  // The simulator knows its scanner's noise: WLOP (§4.1) runs only when there is noise to remove.
+  if (options.session.consolidate.wlop.noise_hint < 0)
+    options.session.consolidate.wlop.noise_hint = options.scanner.noise.magnitude;
   options.validate();
   AUTOSCAN_REQUIRE(!truth_in.empty(), "simulate: the mesh has no faces");
   truth_in.validate("simulate: mesh");

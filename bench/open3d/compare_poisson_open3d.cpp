@@ -1,0 +1,122 @@
+// Side-by-side benchmark: our screened Poisson (autoscan::poisson) against Open3D's PoissonRecon on
+// the same oriented points, sampled from the benchmark meshes (normalised to diagonal 1).
+// Each solver runs in its own child process (fork), so that its peak resident memory (ru_maxrss of
+// the child) and its time are measured alone; both meshes are then compared with the true mesh
+// (autoscan::eval: Chamfer = (accuracy mean + completeness mean) / 2, F-score at 0.5 % of the
+// diagonal). Usage: compare_poisson_open3d [--quick] (quick: 100k points, depth 8, bunny only).
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/geometry/TriangleMesh.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "autoscan/core/random.hpp"
+#include "autoscan/eval/metrics.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/poisson/poisson.hpp"
+#include "autoscan/shapes/normalize.hpp"
+#include "autoscan/shapes/sampling.hpp"
+
+using namespace autoscan;
+
+namespace {
+
+struct Run {
+  double seconds = 0;
+  double peak_mib = 0;
+  TriangleMesh mesh;
+  bool ok = false;
+};
+
+template <class F>
+Run in_child(const std::string& tag, F&& body) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const auto mesh_path = dir / ("autoscan_cmp_" + tag + "_" + std::to_string(::getpid()) + ".ply");
+  const auto time_path = dir / ("autoscan_cmp_" + tag + "_" + std::to_string(::getpid()) + ".txt");
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    try {
+      const auto t0 = std::chrono::steady_clock::now();
+      TriangleMesh m = body();
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      io::write_mesh(mesh_path, m);
+      std::ofstream(time_path) << s;
+      std::_Exit(0);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s: %s\n", tag.c_str(), e.what());
+      std::_Exit(1);
+    }
+  }
+  int status = 0;
+  rusage ru{};
+  ::wait4(pid, &status, 0, &ru);
+  Run r;
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+    std::ifstream(time_path) >> r.seconds;
+    r.mesh = io::read_mesh(mesh_path);
+    r.peak_mib = static_cast<double>(ru.ru_maxrss) / 1024.0;
+    r.ok = true;
+  }
+  std::filesystem::remove(mesh_path);
+  std::filesystem::remove(time_path);
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
+  std::printf("| model | points | depth | ours s | Open3D s | time ratio ours/peer | ours peak MiB | Open3D peak MiB | "
+              "ours Chamfer | Open3D Chamfer | Chamfer ratio | ours F@0.5%% | Open3D F@0.5%% | ours V | Open3D V |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const char* name : {"bunny00", "armadillo"}) {
+    if (quick && std::string(name) != "bunny00") continue;
+    TriangleMesh truth = io::read_mesh(std::string(AUTOSCAN_MODELS_DIR) + "/" + name + ".off");
+    normalize_to_benchmark_frame(truth);
+    for (std::size_t n : {std::size_t{100000}, std::size_t{500000}}) {
+      if (quick && n != 100000) continue;
+      Rng rng(7);
+      PointCloud pc = sample_surface(truth, n, rng);
+      pc.scalars.clear();
+      for (int depth : {8, 9}) {
+        if (quick && depth != 8) continue;
+        Run ours = in_child("ours", [&] {
+          poisson::PoissonOptions opt;
+          opt.depth = depth;
+          return poisson::reconstruct(pc, opt).mesh;
+        });
+        Run peer = in_child("open3d", [&] {
+          open3d::geometry::PointCloud o3;
+          o3.points_ = pc.positions;
+          o3.normals_ = pc.normals;
+          auto [mesh, dens] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(o3, depth, 0, 1.1f, false, -1);
+          TriangleMesh m;
+          m.vertices = mesh->vertices_;
+          for (const auto& t : mesh->triangles_) m.faces.push_back({t[0], t[1], t[2]});
+          return m;
+        });
+        if (!ours.ok || !peer.ok) {
+          std::printf("| %s | %zu | %d | failed (ours %d, peer %d) |\n", name, n, depth, ours.ok, peer.ok);
+          continue;
+        }
+        eval::EvalOptions eo;
+        const auto eo_ours = eval::evaluate_mesh(ours.mesh, truth, eo);
+        const auto eo_peer = eval::evaluate_mesh(peer.mesh, truth, eo);
+        const double ch_ours = 0.5 * (eo_ours.accuracy.mean + eo_ours.completeness.mean);
+        const double ch_peer = 0.5 * (eo_peer.accuracy.mean + eo_peer.completeness.mean);
+        std::printf("| %s | %zuk | %d | %.2f | %.2f | **%.2f** | %.0f | %.0f | %.5f | %.5f | **%.3f** | %.4f | %.4f | %zu | %zu |\n",
+                    name, n / 1000, depth, ours.seconds, peer.seconds, ours.seconds / peer.seconds, ours.peak_mib,
+                    peer.peak_mib, ch_ours, ch_peer, ch_ours / ch_peer, eo_ours.fscore, eo_peer.fscore,
+                    ours.mesh.vertices.size(), peer.mesh.vertices.size());
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}

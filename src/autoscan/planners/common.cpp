@@ -1,0 +1,232 @@
+#include "autoscan/planners/common.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "autoscan/core/error.hpp"
+
+namespace autoscan::planners::detail {
+
+// ---- Params -----------------------------------------------------------------------------------
+
+Params::Params(std::string planner, const nlohmann::json& params) : planner_(std::move(planner)), params_(params) {
+  AUTOSCAN_REQUIRE(params_.is_object() || params_.is_null(), "planner '{}': params must be a JSON object", planner_);
+  if (params_.is_null()) params_ = nlohmann::json::object();
+}
+
+double Params::number(const std::string& key, double def, double lo, double hi) {
+  used_.insert(key);
+  if (!params_.contains(key)) return def;
+  const auto& v = params_.at(key);
+  AUTOSCAN_REQUIRE(v.is_number(), "planner '{}': parameter '{}' must be a number", planner_, key);
+  const double x = v.get<double>();
+  AUTOSCAN_REQUIRE(std::isfinite(x) && x >= lo && x <= hi, "planner '{}': parameter '{}' = {} is outside [{}, {}]",
+                   planner_, key, x, lo, hi);
+  return x;
+}
+
+int Params::integer(const std::string& key, int def, int lo, int hi) {
+  used_.insert(key);
+  if (!params_.contains(key)) return def;
+  const auto& v = params_.at(key);
+  AUTOSCAN_REQUIRE(v.is_number_integer(), "planner '{}': parameter '{}' must be an integer", planner_, key);
+  const auto x = v.get<long long>();
+  AUTOSCAN_REQUIRE(x >= lo && x <= hi, "planner '{}': parameter '{}' = {} is outside [{}, {}]", planner_, key, x, lo,
+                   hi);
+  return static_cast<int>(x);
+}
+
+bool Params::boolean(const std::string& key, bool def) {
+  used_.insert(key);
+  if (!params_.contains(key)) return def;
+  const auto& v = params_.at(key);
+  AUTOSCAN_REQUIRE(v.is_boolean(), "planner '{}': parameter '{}' must be true or false", planner_, key);
+  return v.get<bool>();
+}
+
+void Params::finish() const {
+  for (const auto& [key, value] : params_.items()) {
+    if (used_.count(key)) continue;
+    std::string known;
+    for (const auto& k : used_) known += (known.empty() ? "" : ", ") + k;
+    throw InputError(fmt::format("planner '{}': unknown parameter '{}' (known: {})", planner_, key, known));
+  }
+}
+
+// ---- PointIndex -------------------------------------------------------------------------------
+
+namespace {
+struct Adaptor {
+  const std::vector<Vec3>* points = nullptr;
+  std::size_t kdtree_get_point_count() const { return points->size(); }
+  double kdtree_get_pt(std::size_t i, std::size_t d) const { return (*points)[i][static_cast<int>(d)]; }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox& /*bb*/) const {
+    return false;
+  }
+};
+using Tree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>, Adaptor, 3, std::uint32_t>;
+}  // namespace
+
+struct PointIndex::Impl {
+  Adaptor adaptor;
+  Tree tree;
+  explicit Impl(const std::vector<Vec3>& pts)
+      : adaptor{&pts}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
+};
+
+PointIndex::PointIndex(const std::vector<Vec3>& points) : impl_(std::make_unique<Impl>(points)) {}
+PointIndex::~PointIndex() = default;
+
+void PointIndex::radius(const Vec3& q, double r, std::vector<std::pair<std::uint32_t, double>>& out) const {
+  out.clear();
+  if (impl_->adaptor.points->empty()) return;
+  impl_->tree.radiusSearch(q.data(), r * r, out, nanoflann::SearchParams(32, 0.f, false));
+}
+
+std::size_t PointIndex::knn(const Vec3& q, std::size_t k, std::vector<std::uint32_t>& idx,
+                            std::vector<double>& d2) const {
+  idx.resize(k);
+  d2.resize(k);
+  if (impl_->adaptor.points->empty() || k == 0) return 0;
+  const std::size_t n = impl_->tree.knnSearch(q.data(), k, idx.data(), d2.data());
+  idx.resize(n);
+  d2.resize(n);
+  return n;
+}
+
+// ---- views ------------------------------------------------------------------------------------
+
+std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const Vec3& position, const Vec3& target) {
+  if (!position.allFinite() || !target.allFinite()) return std::nullopt;
+  const double d_o = scanner.optimal_distance();
+  auto onto_rig = [&](Vec3 p) -> std::optional<Vec3> {
+    if (rig.kind == Rig::Kind::view_sphere) {
+      const double r = p.norm();
+      if (r < 1e-12) return std::nullopt;
+      p *= rig.sphere_radius / r;
+    } else if (rig.kind == Rig::Kind::turntable_arm) {
+      const double r = p.head<2>().norm();
+      if (r < 1e-12) return std::nullopt;
+      p.head<2>() *= std::clamp(r, rig.min_radius, rig.max_radius) / r;
+      p.z() = std::clamp(p.z(), rig.min_height, rig.max_height);
+    }
+    return p;
+  };
+  // Alternate between the rig's reach and the optimal distance to the target along the line of
+  // sight: a few rounds settle on a reachable position in range whenever one is near.
+  std::optional<Vec3> p = onto_rig(position);
+  for (int round = 0; p && round < 8; ++round) {
+    const double d = (target - *p).norm();
+    if (d >= scanner.near && d <= scanner.far) break;
+    if (d < 1e-12) return std::nullopt;
+    p = onto_rig(target + d_o * (*p - target) / d);
+  }
+  if (!p) return std::nullopt;
+  const double d = (target - *p).norm();
+  if (d < scanner.near || d > scanner.far) return std::nullopt;
+  const Pose pose = Pose::look_at(*p, target).normalized();
+  if (!rig.reachable(pose)) return std::nullopt;
+  return pose;
+}
+
+Vec3 object_center(const ModelState& state) {
+  if (!state.acquired_bounds.empty()) return state.acquired_bounds.center();
+  if (!state.raw.empty()) return state.raw.bounds().center();
+  if (!state.mesh.vertices.empty()) return state.mesh.bounds().center();
+  return Vec3::Zero();
+}
+
+std::vector<PlannedView> pick_separated(std::vector<PlannedView> views, int k, double min_separation) {
+  std::stable_sort(views.begin(), views.end(),
+                   [](const PlannedView& a, const PlannedView& b) { return a.score > b.score; });
+  std::vector<PlannedView> out;
+  for (auto& v : views) {
+    if (static_cast<int>(out.size()) >= k) break;
+    bool ok = true;
+    for (const auto& o : out)
+      if ((o.pose.position - v.pose.position).norm() < min_separation) {
+        ok = false;
+        break;
+      }
+    if (ok) out.push_back(std::move(v));
+  }
+  return out;
+}
+
+PlanOutput finish_output(const Rig& rig, const Pose& current, std::vector<PlannedView> views) {
+  PlanOutput out;
+  out.views = order_greedy(rig, current, std::move(views));
+  out.path_length = path_length(rig, current, out.views);
+  return out;
+}
+
+const PointCloud* oriented_cloud(const ModelState& state) {
+  if (!state.consolidated.empty() && state.consolidated.has_normals()) return &state.consolidated;
+  if (!state.raw.empty() && state.raw.has_normals()) return &state.raw;
+  return nullptr;
+}
+
+std::vector<std::vector<std::size_t>> cluster_greedy(const std::vector<Vec3>& positions,
+                                                     const std::vector<Vec3>& directions, double radius,
+                                                     double min_dot) {
+  std::vector<std::vector<std::size_t>> clusters;
+  if (positions.empty()) return clusters;
+  PointIndex index(positions);
+  std::vector<bool> taken(positions.size(), false);
+  std::vector<std::pair<std::uint32_t, double>> hits;
+  for (std::size_t s = 0; s < positions.size(); ++s) {
+    if (taken[s]) continue;
+    index.radius(positions[s], radius, hits);
+    std::sort(hits.begin(), hits.end());
+    std::vector<std::size_t> members;
+    for (const auto& h : hits)
+      if (!taken[h.first] && directions[h.first].dot(directions[s]) >= min_dot) {
+        taken[h.first] = true;
+        members.push_back(h.first);
+      }
+    if (!taken[s]) {
+      taken[s] = true;
+      members.push_back(s);
+    }
+    clusters.push_back(std::move(members));
+  }
+  return clusters;
+}
+
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  const std::size_t i = std::min(values.size() - 1, static_cast<std::size_t>(q * double(values.size() - 1) + 0.5));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(i), values.end());
+  return values[i];
+}
+
+// ---- NeedFieldRunner --------------------------------------------------------------------------
+
+PlanOutput NeedFieldRunner::run(const std::string& planner, const ModelState& state, const std::vector<double>& need,
+                                const Pose& current, const ProgressCallback& progress) {
+  AUTOSCAN_REQUIRE(!state.mesh.empty(), "planner '{}': the model has no Poisson mesh yet", planner);
+  AUTOSCAN_REQUIRE(!state.iso_points.empty() && state.iso_points.has_normals(),
+                   "planner '{}': the model has no iso-points with normals", planner);
+  AUTOSCAN_CHECK(need.size() == state.iso_points.size(), "planner '{}': {} need values for {} iso-points", planner,
+                 need.size(), state.iso_points.size());
+  PointCloud iso;
+  iso.positions = state.iso_points.positions;
+  iso.normals = state.iso_points.normals;
+  std::vector<double> f(need.size());
+  for (std::size_t i = 0; i < need.size(); ++i) f[i] = 1.0 - std::clamp(need[i], 0.0, 1.0);
+  iso.scalars.set("f", std::move(f));
+  if (!nbv_)
+    nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, options_);
+  else
+    nbv_->set_mesh(state.mesh);
+  const nbv::PlanResult r = nbv_->plan(iso, current, state.field.get(), progress);
+  PlanOutput out;
+  for (const auto& v : r.views) out.views.push_back({v.pose, v.score, v.target});
+  out.path_length = r.path_length;
+  out.diagnostics = nbv::diagnostics_to_json(r.diagnostics);
+  return out;
+}
+
+}  // namespace autoscan::planners::detail

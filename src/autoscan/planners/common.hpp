@@ -1,0 +1,100 @@
+#pragma once
+// Shared helpers of the baseline planners (random, sphere, density, curvature, visibility, pvs):
+// parameter parsing with typo detection, a kd-tree over points, placing a view so the rig can
+// reach it with its target in the working range, greedy selection with a minimum separation, and
+// the nbv-field runner that the density and curvature planners share with ours.
+#include <cstdint>
+#include <memory>
+#include <nanoflann.hpp>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "autoscan/nbv/nbv.hpp"
+#include "autoscan/planners/planner.hpp"
+
+namespace autoscan::planners::detail {
+
+/// Reads a planner's `params` object. Every key must be consumed before finish(); an unknown key
+/// (a typo) is an InputError naming the planner and the key.
+class Params {
+ public:
+  Params(std::string planner, const nlohmann::json& params);
+  /// A number in [lo, hi] (or the default when absent).
+  double number(const std::string& key, double def, double lo, double hi);
+  int integer(const std::string& key, int def, int lo, int hi);
+  bool boolean(const std::string& key, bool def);
+  /// Throws InputError for any key not read.
+  void finish() const;
+
+ private:
+  std::string planner_;
+  nlohmann::json params_;
+  std::set<std::string> used_;
+};
+
+/// A kd-tree over a point vector (nanoflann 1.4, squared distances). Owns nothing: `points` must
+/// outlive it and stay unchanged. Const queries are thread-safe.
+class PointIndex {
+ public:
+  explicit PointIndex(const std::vector<Vec3>& points);
+  ~PointIndex();
+  /// Indices of the points within `radius` of q (unsorted).
+  void radius(const Vec3& q, double radius, std::vector<std::pair<std::uint32_t, double>>& out) const;
+  /// The k nearest points (sorted); returns how many were found.
+  std::size_t knn(const Vec3& q, std::size_t k, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// A pose at `position` looking at `target`, moved onto the rig's reach when the rig is a
+/// view_sphere (radial projection onto the sphere) or a turntable_arm (radius and height clamped
+/// into the bands); when that leaves the working range, the position is put back at d_o from the
+/// target along the new line of sight and moved onto the rig again (at most 8 rounds). nullopt when
+/// the result is unreachable or its distance to `target` is outside [near, far].
+std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const Vec3& position, const Vec3& target);
+
+/// Centre and rough radius of the object from the acquired bounds (else the raw cloud, the mesh,
+/// or the origin).
+Vec3 object_center(const ModelState& state);
+
+/// Picks, in order of decreasing score, at most `k` views whose positions are pairwise at least
+/// `min_separation` apart. Ties keep input order (stable, deterministic).
+std::vector<PlannedView> pick_separated(std::vector<PlannedView> views, int k, double min_separation);
+
+/// Orders the views greedily from `current` and fills path_length.
+PlanOutput finish_output(const Rig& rig, const Pose& current, std::vector<PlannedView> views);
+
+/// The cloud that carries normals for surface analysis: the consolidated cloud when it has
+/// normals, else the raw cloud when it has normals; nullptr when neither.
+const PointCloud* oriented_cloud(const ModelState& state);
+
+/// Greedy clustering of oriented points: seeds in index order; a seed takes every unassigned point
+/// within `radius` whose direction has dot >= `min_dot` with the seed's. Deterministic.
+std::vector<std::vector<std::size_t>> cluster_greedy(const std::vector<Vec3>& positions,
+                                                     const std::vector<Vec3>& directions, double radius,
+                                                     double min_dot);
+
+/// `values` sorted copy's q-quantile (q in [0, 1]); 0 for an empty input.
+double quantile(std::vector<double> values, double q);
+
+/// Runs the nbv viewing vector field (Eq. 4), selection (§5.2) and aiming (Eq. 5) with a
+/// per-iso-point need in [0, 1] in place of the paper's 1 - f (the iso-points are passed to nbv with
+/// f := 1 - need). Keeps the NbvPlanner (its ray scene) across calls. Used by `density` and
+/// `curvature` (Figure 13's alternatives).
+class NeedFieldRunner {
+ public:
+  explicit NeedFieldRunner(nbv::NbvOptions options) : options_(std::move(options)) {}
+  PlanOutput run(const std::string& planner, const ModelState& state, const std::vector<double>& need,
+                 const Pose& current, const ProgressCallback& progress);
+
+ private:
+  nbv::NbvOptions options_;
+  std::unique_ptr<nbv::NbvPlanner> nbv_;
+};
+
+}  // namespace autoscan::planners::detail

@@ -1,0 +1,250 @@
+#include "autoscan/planners/sphere_planner.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/planners/common.hpp"
+
+namespace autoscan::planners {
+
+SpherePlannerOptions SpherePlannerOptions::from_json(const nlohmann::json& params) {
+  detail::Params p("sphere", params);
+  SpherePlannerOptions o;
+  o.grid_resolution = p.integer("grid_resolution", o.grid_resolution, 4, 512);
+  o.grid_margin = p.number("grid_margin", o.grid_margin, 0.0, 10.0);
+  o.candidates = p.integer("candidates", o.candidates, 1, 100000);
+  o.frustum_rays_x = p.integer("frustum_rays_x", o.frustum_rays_x, 1, 4096);
+  o.frustum_rays_y = p.integer("frustum_rays_y", o.frustum_rays_y, 1, 4096);
+  o.max_rays_per_scan = p.integer("max_rays_per_scan", o.max_rays_per_scan, 1, 100000000);
+  o.min_gain = p.integer("min_gain", o.min_gain, 1, 1000000000);
+  p.finish();
+  return o;
+}
+
+// ---- OccupancyGrid ----------------------------------------------------------------------------
+
+OccupancyGrid::OccupancyGrid(const Vec3& origin, double cell, int n)
+    : origin_(origin), cell_(cell), n_(n), state_(std::size_t(n) * n * n, unknown) {
+  AUTOSCAN_REQUIRE(cell > 0 && n > 0, "occupancy grid: cell size and resolution must be positive");
+}
+
+long long OccupancyGrid::index_of(const Vec3& p) const {
+  const Vec3 l = (p - origin_) / cell_;
+  long long i[3];
+  for (int a = 0; a < 3; ++a) {
+    if (!(l[a] >= 0.0) || l[a] >= n_) return -1;
+    i[a] = static_cast<long long>(l[a]);
+  }
+  return i[0] + n_ * (i[1] + n_ * i[2]);
+}
+
+std::size_t OccupancyGrid::count(State s) const {
+  return static_cast<std::size_t>(std::count(state_.begin(), state_.end(), std::uint8_t(s)));
+}
+
+/// Amanatides-Woo voxel walk along o + t d, t in [0, t_max], clipped to the grid. visit(index,
+/// t_enter, t_exit) returns false to stop.
+template <class Visit>
+void OccupancyGrid::traverse(const Vec3& o, const Vec3& d, double t_max, Visit&& visit) const {
+  if (n_ == 0) return;
+  const double side = cell_ * n_;
+  double t0 = 0.0, t1 = t_max;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = origin_[a], hi = origin_[a] + side;
+    if (std::abs(d[a]) < 1e-15) {
+      if (o[a] < lo || o[a] > hi) return;
+      continue;
+    }
+    double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  if (t0 > t1) return;
+  const Vec3 p = o + d * t0;
+  int i[3], step[3];
+  double t_next[3], t_delta[3];
+  for (int a = 0; a < 3; ++a) {
+    i[a] = std::clamp(static_cast<int>(std::floor((p[a] - origin_[a]) / cell_)), 0, n_ - 1);
+    if (d[a] > 1e-15) {
+      step[a] = 1;
+      t_next[a] = (origin_[a] + (i[a] + 1) * cell_ - o[a]) / d[a];
+      t_delta[a] = cell_ / d[a];
+    } else if (d[a] < -1e-15) {
+      step[a] = -1;
+      t_next[a] = (origin_[a] + i[a] * cell_ - o[a]) / d[a];
+      t_delta[a] = -cell_ / d[a];
+    } else {
+      step[a] = 0;
+      t_next[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+    }
+  }
+  double t = t0;
+  for (;;) {
+    const int a = t_next[0] < t_next[1] ? (t_next[0] < t_next[2] ? 0 : 2) : (t_next[1] < t_next[2] ? 1 : 2);
+    const double t_exit = std::min(t_next[a], t1);
+    if (!visit(std::size_t(i[0]) + std::size_t(n_) * (i[1] + std::size_t(n_) * i[2]), t, t_exit)) return;
+    if (t_next[a] >= t1) return;
+    t = t_next[a];
+    i[a] += step[a];
+    if (i[a] < 0 || i[a] >= n_) return;
+    t_next[a] += t_delta[a];
+  }
+}
+
+void OccupancyGrid::integrate(const Vec3& sensor, const Vec3& point) {
+  const Vec3 v = point - sensor;
+  const double len = v.norm();
+  if (!(len > 1e-12)) return;
+  const long long hit = index_of(point);
+  traverse(sensor, v / len, len, [&](std::size_t idx, double, double) {
+    if (static_cast<long long>(idx) == hit) return false;
+    if (state_[idx] == unknown) state_[idx] = free;
+    return true;
+  });
+  if (hit >= 0) state_[std::size_t(hit)] = occupied;
+}
+
+void OccupancyGrid::unknown_along(const Vec3& origin, const Vec3& dir, double t_near, double t_far,
+                                  std::vector<std::uint32_t>& out) const {
+  traverse(origin, dir, t_far, [&](std::size_t idx, double, double t_exit) {
+    if (state_[idx] == occupied) return false;
+    if (state_[idx] == unknown && t_exit >= t_near) out.push_back(static_cast<std::uint32_t>(idx));
+    return true;
+  });
+}
+
+// ---- SpherePlanner ----------------------------------------------------------------------------
+
+SpherePlanner::SpherePlanner(const PlannerOptions& options)
+    : views_(options.nbv.max_views), options_(SpherePlannerOptions::from_json(options.params)) {
+  options.nbv.validate();
+}
+
+void SpherePlanner::observe_scan(const PointCloud& scan, const Pose& pose) {
+  if (scan.empty()) return;
+  const auto* sx = scan.scalars.find("sensor_x");
+  const auto* sy = scan.scalars.find("sensor_y");
+  const auto* sz = scan.scalars.find("sensor_z");
+  const bool per_point = sx && sy && sz;
+  const std::size_t n = scan.size();
+  const std::size_t stride = (n + options_.max_rays_per_scan - 1) / std::size_t(options_.max_rays_per_scan);
+  Pending p;
+  for (std::size_t i = 0; i < n; i += std::max<std::size_t>(1, stride)) {
+    p.points.push_back(scan.positions[i]);
+    p.sensors.push_back(per_point ? Vec3((*sx)[i], (*sy)[i], (*sz)[i]) : pose.position);
+  }
+  pending_.push_back(std::move(p));
+  if (!grid_.empty()) flush();
+}
+
+void SpherePlanner::flush() {
+  for (const auto& p : pending_)
+    for (std::size_t i = 0; i < p.points.size(); ++i) grid_.integrate(p.sensors[i], p.points[i]);
+  pending_.clear();
+}
+
+PlanOutput SpherePlanner::plan(const ModelState& state, const Pose& current, Rng& rng) {
+  (void)rng;  // deterministic
+  Stopwatch timer;
+  state.scanner.validate("planner 'sphere': scanner");
+  if (grid_.empty()) {
+    AABB box = state.acquired_bounds;
+    if (box.empty())
+      for (const auto& p : pending_)
+        for (const auto& q : p.points) box.extend(q);
+    AUTOSCAN_REQUIRE(!box.empty(), "planner 'sphere': no acquired points yet (observe a scan first)");
+    const double extent = std::max(box.extent().maxCoeff(), 1e-3 * state.scanner.optimal_distance());
+    const double side = extent * (1.0 + 2.0 * options_.grid_margin);
+    grid_ = OccupancyGrid(box.center() - Vec3::Constant(0.5 * side), side / options_.grid_resolution,
+                          options_.grid_resolution);
+  }
+  flush();
+
+  // Candidates on the view sphere.
+  const Vec3 center = detail::object_center(state);
+  const bool rig_sphere = state.rig.kind == Rig::Kind::view_sphere;
+  const Vec3 sphere_center = rig_sphere ? Vec3::Zero() : center;
+  const double radius = rig_sphere ? state.rig.sphere_radius : state.scanner.optimal_distance();
+  std::vector<Pose> cands;
+  const int n = options_.candidates;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Vec3 dir(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    if (auto pose = detail::place_view(state.rig, state.scanner, sphere_center + radius * dir, center))
+      cands.push_back(*pose);
+  }
+
+  // The unknown voxels each candidate sees (sorted, unique).
+  const double tx = std::tan(0.5 * state.scanner.fov_deg * std::numbers::pi / 180.0);
+  const double ty = std::tan(0.5 * state.scanner.vertical_fov_deg() * std::numbers::pi / 180.0);
+  auto seen_by = [&](const Pose& pose) {
+    std::vector<std::uint32_t> seen;
+    const Mat3 R = pose.rotation();
+    for (int y = 0; y < options_.frustum_rays_y; ++y)
+      for (int x = 0; x < options_.frustum_rays_x; ++x) {
+        const double u = tx * ((x + 0.5) / options_.frustum_rays_x * 2.0 - 1.0);
+        const double v = ty * ((y + 0.5) / options_.frustum_rays_y * 2.0 - 1.0);
+        const Vec3 d = (R * Vec3(u, v, 1.0)).normalized();
+        grid_.unknown_along(pose.position, d, state.scanner.near, state.scanner.far, seen);
+      }
+    std::sort(seen.begin(), seen.end());
+    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+    return seen;
+  };
+  std::vector<std::vector<std::uint32_t>> seen(cands.size());
+  tbb::parallel_for(std::size_t(0), cands.size(), [&](std::size_t i) { seen[i] = seen_by(cands[i]); });
+
+  // Lazy greedy coverage of the unknown voxels.
+  std::vector<std::uint8_t> covered(std::size_t(grid_.resolution()) * grid_.resolution() * grid_.resolution(), 0);
+  std::vector<long long> bound(cands.size());
+  for (std::size_t i = 0; i < cands.size(); ++i) bound[i] = static_cast<long long>(seen[i].size());
+  auto gain = [&](std::size_t i) {
+    long long g = 0;
+    for (auto v : seen[i]) g += covered[v] ? 0 : 1;
+    return g;
+  };
+  std::vector<PlannedView> views;
+  const long long initial_best = bound.empty() ? 0 : *std::max_element(bound.begin(), bound.end());
+  while (static_cast<int>(views.size()) < views_) {
+    std::size_t best = cands.size();
+    for (;;) {
+      best = cands.size();
+      for (std::size_t i = 0; i < cands.size(); ++i)
+        if (bound[i] >= 0 && (best == cands.size() || bound[i] > bound[best])) best = i;
+      if (best == cands.size()) break;
+      const long long g = gain(best);
+      bound[best] = g;
+      bool still_best = true;
+      for (std::size_t i = 0; i < cands.size(); ++i)
+        if (i != best && bound[i] > g) still_best = false;
+      if (still_best) break;
+    }
+    if (best == cands.size() || bound[best] < options_.min_gain) break;
+    for (auto v : seen[best]) covered[v] = 1;
+    views.push_back({cands[best], double(bound[best]), center});
+    bound[best] = -1;
+  }
+
+  PlanOutput out = detail::finish_output(state.rig, current, std::move(views));
+  out.diagnostics = {{"candidates", cands.size()},
+                     {"grid_resolution", grid_.resolution()},
+                     {"voxel_size", grid_.cell()},
+                     {"unknown_voxels", grid_.count(OccupancyGrid::unknown)},
+                     {"free_voxels", grid_.count(OccupancyGrid::free)},
+                     {"occupied_voxels", grid_.count(OccupancyGrid::occupied)},
+                     {"best_gain", initial_best},
+                     {"seconds_total", timer.seconds()}};
+  if (out.views.empty()) out.diagnostics["messages"] = {"no candidate view sees an unknown voxel"};
+  return out;
+}
+
+}  // namespace autoscan::planners

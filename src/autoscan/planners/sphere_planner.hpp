@@ -1,0 +1,88 @@
+#pragma once
+// `sphere`: the view-sphere planner of Vasquez-Gomez, Lopez-Damian & Sucar, "View planning for 3D
+// object reconstruction" (IROS 2009), adapted to our loop.
+//
+// The planner keeps an occupancy grid across iterations (voxels unknown / free / occupied). Every
+// scan the model receives (observe_scan) is ray cast from its sensor position (the points' "sensor_x/
+// y/z" scalars when present, else the scan pose) through its points: the voxels a ray crosses become
+// free (unless already occupied), the voxel of the point occupied. Occupied is final, free only
+// overwrites unknown, so the grid does not depend on the order of the rays.
+// Candidate views lie on a view sphere of radius d_o around the centre of the acquired points
+// (Fibonacci points; with a view_sphere rig, on the rig's sphere), aimed at that centre. A
+// candidate's score is the number of unknown voxels its frustum (a frustum_rays_x x frustum_rays_y
+// fan over the scanner's field of view, within [d_n, d_f]) would see before the rays hit an occupied
+// voxel (unknown voxels do not stop a ray). The k best (k = NbvOptions::max_views) are picked
+// greedily: after each pick the voxels it sees no longer count for the others (lazy greedy; the
+// gain is submodular), which replaces the 2009 paper's overlap constraint.
+// Adaptations: the grid is a cube fixed at the first plan() around the acquired points (the object's
+// size is not known beforehand), grid_margin larger on every side; scans are subsampled to
+// max_rays_per_scan rays; the original's positioning-error term is not modelled.
+#include <cstdint>
+#include <vector>
+
+#include "autoscan/planners/planner.hpp"
+
+namespace autoscan::planners {
+
+struct SpherePlannerOptions {
+  int grid_resolution = 64;       ///< occupancy voxels per axis
+  double grid_margin = 0.3;       ///< the grid cube extends this times the largest extent beyond each side
+  int candidates = 256;           ///< view positions on the view sphere
+  int frustum_rays_x = 32;        ///< rays across the field of view per candidate (horizontal)
+  int frustum_rays_y = 24;        ///< (vertical)
+  int max_rays_per_scan = 30000;  ///< scans are subsampled (evenly, deterministic) to at most this many rays
+  int min_gain = 1;               ///< views that would see fewer new unknown voxels are not proposed
+  /// Reads params with these names; unknown keys are an InputError.
+  static SpherePlannerOptions from_json(const nlohmann::json& params);
+};
+
+/// The occupancy grid (exposed for tests and diagnostics).
+class OccupancyGrid {
+ public:
+  enum State : std::uint8_t { unknown = 0, free = 1, occupied = 2 };
+  OccupancyGrid() = default;
+  OccupancyGrid(const Vec3& origin, double cell, int n);
+  bool empty() const { return n_ == 0; }
+  int resolution() const { return n_; }
+  double cell() const { return cell_; }
+  const Vec3& origin() const { return origin_; }
+  State at(std::size_t idx) const { return State(state_[idx]); }
+  /// Linear index of the voxel holding p, or -1 outside.
+  long long index_of(const Vec3& p) const;
+  /// Ray casting of one scan: free along sensor -> point, occupied at the point.
+  void integrate(const Vec3& sensor, const Vec3& point);
+  /// Unknown voxels seen from `origin` along the unit `dir` with distance in [t_near, t_far],
+  /// stopping at the first occupied voxel; appended to `out`.
+  void unknown_along(const Vec3& origin, const Vec3& dir, double t_near, double t_far,
+                     std::vector<std::uint32_t>& out) const;
+  std::size_t count(State s) const;
+
+ private:
+  template <class Visit>
+  void traverse(const Vec3& o, const Vec3& d, double t_max, Visit&& visit) const;
+  Vec3 origin_ = Vec3::Zero();
+  double cell_ = 0.0;
+  int n_ = 0;
+  std::vector<std::uint8_t> state_;
+};
+
+class SpherePlanner final : public Planner {
+ public:
+  explicit SpherePlanner(const PlannerOptions& options);
+  std::string name() const override { return "sphere"; }
+  void observe_scan(const PointCloud& scan, const Pose& pose) override;
+  PlanOutput plan(const ModelState& state, const Pose& current, Rng& rng) override;
+  const OccupancyGrid& grid() const { return grid_; }
+
+ private:
+  struct Pending {
+    std::vector<Vec3> sensors, points;
+  };
+  void flush();
+  int views_ = 10;
+  SpherePlannerOptions options_;
+  OccupancyGrid grid_;
+  std::vector<Pending> pending_;
+};
+
+}  // namespace autoscan::planners

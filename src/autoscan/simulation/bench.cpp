@@ -1,0 +1,375 @@
+#include "autoscan/simulation/bench.hpp"
+
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/eval/metrics.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/shapes/procedural.hpp"
+
+extern char** environ;
+
+namespace autoscan::simulation {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+void BenchGrid::validate() const {
+  AUTOSCAN_REQUIRE(!models.empty() && !planners.empty() && !views.empty() && !noise.empty() && !seeds.empty(),
+                   "bench: models, planners, views, noise and seeds must not be empty");
+  for (int v : views) AUTOSCAN_REQUIRE(v > 0, "bench: view budgets must be positive, got {}", v);
+  for (double n : noise) AUTOSCAN_REQUIRE(n >= 0 && n <= 1, "bench: noise must be in [0, 1], got {}", n);
+  AUTOSCAN_REQUIRE(depth >= 4 && depth <= 10, "bench: depth must be in [4, 10], got {}", depth);
+}
+
+json to_json(const BenchGrid& g) {
+  return {{"models", g.models}, {"planners", g.planners}, {"views", g.views}, {"noise", g.noise},
+          {"seeds", g.seeds},   {"models_dir", g.models_dir.string()}, {"depth", g.depth},
+          {"max_iterations", g.max_iterations}};
+}
+
+BenchGrid bench_grid_from_json(const json& j, const std::string& what) {
+  BenchGrid g;
+  try {
+    g.models = j.at("models").get<std::vector<std::string>>();
+    g.planners = j.at("planners").get<std::vector<std::string>>();
+    g.views = j.at("views").get<std::vector<int>>();
+    g.noise = j.at("noise").get<std::vector<double>>();
+    g.seeds = j.at("seeds").get<std::vector<std::uint64_t>>();
+    g.models_dir = j.value("models_dir", g.models_dir.string());
+    g.depth = j.value("depth", g.depth);
+    g.max_iterations = j.value("max_iterations", g.max_iterations);
+  } catch (const json::exception& e) {
+    throw InputError(fmt::format("{}: {}", what, e.what()));
+  }
+  g.validate();
+  return g;
+}
+
+std::vector<BenchJob> expand_grid(const BenchGrid& g) {
+  std::vector<BenchJob> jobs;
+  for (const auto& m : g.models)
+    for (double n : g.noise)
+      for (const auto& p : g.planners)
+        for (auto s : g.seeds) {
+          BenchJob j;
+          j.index = static_cast<int>(jobs.size());
+          j.model = m;
+          j.planner = p;
+          j.noise = n;
+          j.seed = s;
+          j.name = fmt::format("{}__{}__n{}__s{}", fs::path(m).stem().string(), p, n, s);
+          jobs.push_back(j);
+        }
+  return jobs;
+}
+
+namespace {
+BenchGrid load_grid(const fs::path& dir) {
+  const fs::path p = dir / "grid.json";
+  AUTOSCAN_REQUIRE(fs::exists(p), "{}: no benchmark here (missing grid.json)", dir.string());
+  auto j = json::parse(read_text_file(p), nullptr, false);
+  AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON", p.string());
+  return bench_grid_from_json(j, p.string());
+}
+
+fs::path result_path(const fs::path& dir, const BenchJob& j) { return dir / "runs" / (j.name + ".result.json"); }
+
+bool finished(const fs::path& dir, const BenchJob& j) {
+  const auto p = result_path(dir, j);
+  if (!fs::exists(p)) return false;
+  auto r = json::parse(read_text_file(p), nullptr, false);
+  return !r.is_discarded() && r.is_object();
+}
+
+TriangleMesh load_model(const BenchGrid& g, const std::string& m) {
+  if (m == "procedural") return ProceduralObject().mesh();
+  fs::path p = m;
+  if (!fs::exists(p)) p = g.models_dir / (m + ".off");
+  AUTOSCAN_REQUIRE(fs::exists(p), "bench: model '{}' not found (looked for {}; run scripts/fetch-models)", m,
+                   p.string());
+  return io::read_mesh(p);
+}
+}  // namespace
+
+void init_bench(const fs::path& dir, const BenchGrid& g) {
+  g.validate();
+  fs::create_directories(dir / "runs");
+  const fs::path p = dir / "grid.json";
+  if (fs::exists(p)) {
+    const auto old = load_grid(dir);
+    AUTOSCAN_REQUIRE(to_json(old) == to_json(g), "{}: holds a different benchmark grid; use another --out", dir.string());
+    return;
+  }
+  write_text_atomic(p, to_json(g).dump(2));
+}
+
+json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
+  const BenchGrid g = load_grid(dir);
+  const auto jobs = expand_grid(g);
+  AUTOSCAN_REQUIRE(index >= 0 && index < static_cast<int>(jobs.size()), "bench: --job {} out of range [0, {})", index,
+                   jobs.size());
+  const BenchJob& job = jobs[index];
+  if (finished(dir, job)) return json::parse(read_text_file(result_path(dir, job)));
+  const fs::path run_dir = dir / "runs" / job.name;
+  SimulateResult r;
+  if (fs::exists(run_dir / "simulation.json")) {
+    r = resume(run_dir, progress);
+  } else {
+    fs::remove_all(run_dir);
+    SimulateOptions o;
+    o.session.planner = job.planner;
+    o.session.seed = job.seed;
+    o.session.max_views = *std::max_element(g.views.begin(), g.views.end());
+    o.session.max_iterations = g.max_iterations;
+    o.session.poisson.depth = g.depth;
+    o.scanner.noise.magnitude = job.noise;
+    o.checkpoints = g.views;
+    o.report = false;
+    r = simulate(load_model(g, job.model), run_dir, o, progress);
+  }
+  json out = {{"job", job.index},     {"model", job.model}, {"planner", job.planner}, {"noise", job.noise},
+              {"seed", job.seed},     {"result", r.to_json()}};
+  write_text_atomic(result_path(dir, job), out.dump(1));
+  return out;
+}
+
+std::vector<std::string> job_commands(const fs::path& dir, const std::string& exe) {
+  const BenchGrid g = load_grid(dir);
+  std::vector<std::string> cmds;
+  for (const auto& j : expand_grid(g))
+    if (!finished(dir, j)) cmds.push_back(fmt::format("{} -q bench --out {} --job {}", exe, dir.string(), j.index));
+  return cmds;
+}
+
+int run_bench(const fs::path& dir, const std::string& exe, int jobs) {
+  AUTOSCAN_REQUIRE(jobs >= 1, "bench: --jobs must be >= 1");
+  const BenchGrid g = load_grid(dir);
+  std::vector<BenchJob> todo;
+  for (const auto& j : expand_grid(g))
+    if (!finished(dir, j)) todo.push_back(j);
+  log::info("bench: {} runs to do, {} at a time", todo.size(), jobs);
+  std::map<pid_t, BenchJob> running;
+  std::size_t next = 0, done = 0;
+  int failed = 0;
+  Stopwatch clock;
+  while (next < todo.size() || !running.empty()) {
+    while (next < todo.size() && static_cast<int>(running.size()) < jobs) {
+      const auto& j = todo[next++];
+      const std::string index = std::to_string(j.index), d = dir.string();
+      std::vector<std::string> args = {exe, "-q", "bench", "--out", d, "--job", index};
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      pid_t pid = 0;
+      if (posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
+        throw RuntimeError(fmt::format("bench: cannot start {}", exe));
+      running[pid] = j;
+    }
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, 0);
+    if (pid <= 0) break;
+    auto it = running.find(pid);
+    if (it == running.end()) continue;
+    ++done;
+    const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (!ok) ++failed;
+    log::info("bench: [{}/{}] {} {} ({:.0f} s elapsed)", done, todo.size(), it->second.name, ok ? "done" : "FAILED",
+              clock.seconds());
+    running.erase(it);
+  }
+  return failed;
+}
+
+namespace {
+
+// A line chart in SVG: x = view budgets (or noise), one polyline per series.
+std::string line_chart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
+                       const std::vector<double>& xs, const std::vector<std::pair<std::string, std::vector<double>>>& series) {
+  const double W = 520, H = 320, L = 60, R = 130, T = 30, B = 45;
+  double lo = 1e300, hi = -1e300;
+  for (const auto& [n, v] : series)
+    for (double y : v)
+      if (std::isfinite(y)) lo = std::min(lo, y), hi = std::max(hi, y);
+  if (!(hi > lo)) hi = lo + 1;
+  const double xlo = xs.front(), xhi = xs.size() > 1 ? xs.back() : xs.front() + 1;
+  auto px = [&](double x) { return L + (W - L - R) * (x - xlo) / (xhi - xlo); };
+  auto py = [&](double y) { return T + (H - T - B) * (1 - (y - lo) / (hi - lo)); };
+  static const char* colors[] = {"#b91c1c", "#2563eb", "#16a34a", "#ca8a04", "#7c3aed", "#0891b2", "#db2777", "#475569"};
+  std::ostringstream s;
+  s << fmt::format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\">", W, H)
+    << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>"
+    << fmt::format("<text x=\"{}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>", (W - R + L) / 2, title)
+    << fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\"/>", L, H - B, W - R, H - B)
+    << fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\"/>", L, T, L, H - B)
+    << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"12\">{}</text>", (W - R + L) / 2, H - 8, xlabel)
+    << fmt::format("<text x=\"14\" y=\"{}\" font-size=\"12\" transform=\"rotate(-90 14 {})\" text-anchor=\"middle\">{}</text>",
+                   (H - B + T) / 2, (H - B + T) / 2, ylabel);
+  for (double y : {lo, (lo + hi) / 2, hi})
+    s << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"10\">{:.4g}</text>", L - 4, py(y) + 4, y);
+  for (double x : xs)
+    s << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{:g}</text>", px(x), H - B + 14, x);
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const char* c = colors[k % 8];
+    std::string pts;
+    for (std::size_t i = 0; i < xs.size() && i < series[k].second.size(); ++i) {
+      const double y = series[k].second[i];
+      if (!std::isfinite(y)) continue;
+      pts += fmt::format("{:.1f},{:.1f} ", px(xs[i]), py(y));
+      s << fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\"/>", px(xs[i]), py(y), c);
+    }
+    s << fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"2\"/>", pts, c)
+      << fmt::format("<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>", W - R + 10, T + 16 * k, c)
+      << fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{}</text>", W - R + 24, T + 16 * k + 9, series[k].first);
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+double mean_of(const std::vector<double>& v) {
+  double s = 0;
+  int n = 0;
+  for (double x : v)
+    if (std::isfinite(x)) s += x, ++n;
+  return n ? s / n : std::nan("");
+}
+
+}  // namespace
+
+json collect(const fs::path& dir, const fs::path& markdown_out) {
+  const BenchGrid g = load_grid(dir);
+  const auto jobs = expand_grid(g);
+  json rows = json::array();
+  std::ostringstream csv;
+  csv << "model,planner,noise,seed,views,views_taken,reached,coverage,fscore,precision,recall,accuracy_mean,"
+         "completeness_mean,mean_f\n";
+  // (model, noise, planner, views) -> values over seeds
+  std::map<std::tuple<std::string, double, std::string, int>, std::map<std::string, std::vector<double>>> agg;
+  std::map<std::pair<std::string, std::string>, std::vector<std::pair<std::string, eval::ErrorHistogram>>> hist;
+  int have = 0;
+  for (const auto& j : jobs) {
+    if (!finished(dir, j)) continue;
+    ++have;
+    const json r = json::parse(read_text_file(result_path(dir, j)));
+    const json& res = r["result"];
+    for (const auto& c : res.value("checkpoints", json::array())) {
+      auto num = [&](const char* k) { return c.contains(k) && c[k].is_number() ? c[k].get<double>() : std::nan(""); };
+      const int v = c.value("views", 0);
+      csv << fmt::format("{},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6f}\n", j.model, j.planner,
+                         j.noise, j.seed, v, c.value("views_taken", 0), c.value("reached", false) ? 1 : 0,
+                         num("coverage"), num("fscore"), num("precision"), num("recall"), num("accuracy_mean"),
+                         num("completeness_mean"), num("mean_f"));
+      auto& a = agg[{j.model, j.noise, j.planner, v}];
+      for (const char* k : {"coverage", "fscore", "accuracy_mean", "completeness_mean"}) a[k].push_back(num(k));
+      json row = c;
+      row.erase("histogram");
+      row["model"] = j.model;
+      row["planner"] = j.planner;
+      row["noise"] = j.noise;
+      row["seed"] = j.seed;
+      rows.push_back(row);
+    }
+    // Figure 9: the final reconstruction's error histogram per planner.
+    const json& t = res.value("truth", json());
+    if (t.is_object() && t.contains("histogram") && j.seed == g.seeds.front()) {
+      eval::ErrorHistogram h;
+      const auto& hj = t["histogram"];
+      h.edges = hj.value("edges", std::vector<double>{});
+      h.share = hj.value("share", std::vector<double>{});
+      h.counts = hj.value("counts", std::vector<std::size_t>{});
+      if (!h.edges.empty() && h.share.size() + 1 == h.edges.size())
+        hist[{fs::path(j.model).stem().string(), fmt::format("{}", j.noise)}].emplace_back(j.planner, h);
+    }
+  }
+  write_text_atomic(dir / "results.csv", csv.str());
+  write_text_atomic(dir / "results.json", json{{"grid", to_json(g)}, {"rows", rows}}.dump(1));
+  fs::create_directories(dir / "plots");
+
+  // Markdown: per model and noise, a table planner × view budget of F-score / coverage (mean over seeds).
+  std::ostringstream md;
+  md << "# Benchmark results\n\nGenerated by `autoscan bench --collect`. " << have << " of " << jobs.size()
+     << " runs finished. Grid: models " << fmt::format("{}", fmt::join(g.models, ", ")) << "; planners "
+     << fmt::format("{}", fmt::join(g.planners, ", ")) << "; view budgets " << fmt::format("{}", fmt::join(g.views, ", "))
+     << "; noise " << fmt::format("{}", fmt::join(g.noise, ", ")) << "; seeds " << g.seeds.size() << "; Poisson depth "
+     << g.depth << ".\nEach cell: F-score at τ = 0.005 of the diagonal / coverage of the truth by the scanned points "
+     << "(mean over seeds). Budgets a run did not reach (its planner stopped earlier) use its final model.\n\n";
+  const fs::path plot_rel = markdown_out.empty() ? fs::path("plots") : fs::relative(dir / "plots", markdown_out.parent_path());
+  std::vector<double> xs(g.views.begin(), g.views.end());
+  for (const auto& m : g.models) {
+    const std::string ms = fs::path(m).stem().string();
+    for (double n : g.noise) {
+      md << "## " << ms << ", noise " << n << "\n\n| planner |";
+      for (int v : g.views) md << " " << v << " views |";
+      md << "\n|---|";
+      for (std::size_t i = 0; i < g.views.size(); ++i) md << "---|";
+      md << "\n";
+      std::vector<std::pair<std::string, std::vector<double>>> fs_series, cov_series;
+      for (const auto& p : g.planners) {
+        md << "| " << p << " |";
+        std::vector<double> fv, cv;
+        for (int v : g.views) {
+          auto it = agg.find({m, n, p, v});
+          const double f = it == agg.end() ? std::nan("") : mean_of(it->second["fscore"]);
+          const double c = it == agg.end() ? std::nan("") : mean_of(it->second["coverage"]);
+          fv.push_back(f);
+          cv.push_back(c);
+          md << (std::isfinite(f) ? fmt::format(" {:.3f} / {:.3f} |", f, c) : std::string(" – |"));
+        }
+        fs_series.emplace_back(p, fv);
+        cov_series.emplace_back(p, cv);
+      }
+      md << "\n";
+      const std::string base = fmt::format("{}_n{}", ms, n);
+      write_text_atomic(dir / "plots" / (base + "_fscore.svg"),
+                        line_chart(ms + " (noise " + fmt::format("{}", n) + "): F-score", "next-best views", "F-score",
+                                   xs, fs_series));
+      write_text_atomic(dir / "plots" / (base + "_coverage.svg"),
+                        line_chart(ms + " (noise " + fmt::format("{}", n) + "): coverage", "next-best views",
+                                   "coverage", xs, cov_series));
+      md << "![F-score](" << (plot_rel / (base + "_fscore.svg")).string() << ") ![coverage]("
+         << (plot_rel / (base + "_coverage.svg")).string() << ")\n";
+      auto h = hist.find({ms, fmt::format("{}", n)});
+      if (h != hist.end() && !h->second.empty()) {
+        try {
+          eval::write_histogram_svg(dir / "plots" / (base + "_histogram.svg"), h->second,
+                                    ms + ": error distribution of the final reconstructions (Figure 9)");
+          md << "![error histogram](" << (plot_rel / (base + "_histogram.svg")).string() << ")\n";
+        } catch (const InputError& e) {
+          log::warn("bench: histogram of {} skipped: {}", base, e.what());
+        }
+      }
+      md << "\n";
+    }
+    // Figure 16: accuracy at the largest budget against noise, per planner.
+    if (g.noise.size() > 1) {
+      std::vector<std::pair<std::string, std::vector<double>>> series;
+      const int vmax = *std::max_element(g.views.begin(), g.views.end());
+      for (const auto& p : g.planners) {
+        std::vector<double> ys;
+        for (double n : g.noise) {
+          auto it = agg.find({m, n, p, vmax});
+          ys.push_back(it == agg.end() ? std::nan("") : mean_of(it->second["accuracy_mean"]));
+        }
+        series.emplace_back(p, ys);
+      }
+      write_text_atomic(dir / "plots" / (ms + "_noise.svg"),
+                        line_chart(ms + ": mean error vs noise (" + std::to_string(vmax) + " views)", "noise magnitude",
+                                   "mean distance to truth", g.noise, series));
+      md << "![noise](" << (plot_rel / (ms + "_noise.svg")).string() << ")\n\n";
+    }
+  }
+  write_text_atomic(dir / "results.md", md.str());
+  if (!markdown_out.empty()) write_text_atomic(markdown_out, md.str());
+  return {{"runs", jobs.size()}, {"finished", have}, {"rows", rows.size()}, {"markdown", (dir / "results.md").string()}};
+}
+
+}  // namespace autoscan::simulation

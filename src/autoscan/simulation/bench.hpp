@@ -1,0 +1,54 @@
+#pragma once
+// The benchmark grid of the paper's comparisons (Figures 9, 12-14, 16): planners × models × noise ×
+// seeds, each run an independent simulation evaluated at view budgets (e.g. 10, 20, 40 next-best
+// views). Runs are independent jobs: `run_bench` executes them in parallel processes and skips the
+// finished ones (resumable); `job_commands` prints one self-contained command per job for GNU
+// parallel or a cluster job array; `collect` merges whatever results exist into tables (CSV, JSON,
+// Markdown) and plots (SVG).
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "autoscan/simulation/simulate.hpp"
+
+namespace autoscan::simulation {
+
+struct BenchGrid {
+  std::vector<std::string> models = {"bunny00", "armadillo", "refined_elephant", "anchor_dense"};  ///< names in
+                                   ///< the models directory, "procedural" (built-in), or mesh paths
+  std::vector<std::string> planners = {"poisson", "random", "sphere", "density", "curvature", "visibility", "pvs"};
+  std::vector<int> views = {10, 20, 40};  ///< view budgets at which each run is evaluated
+  std::vector<double> noise = {0.0, 0.5};
+  std::vector<std::uint64_t> seeds = {1};
+  std::filesystem::path models_dir = "data/models";  ///< where model names are looked up (NAME.off)
+  int depth = 7;                    ///< Poisson depth of the benchmark runs (kept modest: many runs)
+  int max_iterations = 15;
+  void validate() const;
+};
+nlohmann::json to_json(const BenchGrid& g);
+BenchGrid bench_grid_from_json(const nlohmann::json& j, const std::string& what = "grid");
+
+struct BenchJob {
+  int index = 0;
+  std::string model, planner;
+  double noise = 0;
+  std::uint64_t seed = 1;
+  std::string name;  ///< model__planner__nX__sS, the run directory's name
+};
+std::vector<BenchJob> expand_grid(const BenchGrid& g);
+
+/// Writes DIR/grid.json (or checks that an existing one is the same grid).
+void init_bench(const std::filesystem::path& dir, const BenchGrid& g);
+/// Runs job `index` of the grid in DIR (resuming a partial run); writes DIR/runs/NAME.result.json.
+nlohmann::json run_job(const std::filesystem::path& dir, int index, const ProgressCallback& progress = {});
+/// One shell command per unfinished job (`exe bench --out DIR --job I`).
+std::vector<std::string> job_commands(const std::filesystem::path& dir, const std::string& exe);
+/// Runs every unfinished job with `jobs` processes of `exe` at a time. Returns the number that failed.
+int run_bench(const std::filesystem::path& dir, const std::string& exe, int jobs);
+/// Merges the results in DIR into DIR/results.{csv,json,md} and DIR/plots/*.svg. If `markdown_out`
+/// is not empty, also writes the Markdown there (e.g. docs/results.md) with plot links relative to it.
+nlohmann::json collect(const std::filesystem::path& dir, const std::filesystem::path& markdown_out = {});
+
+}  // namespace autoscan::simulation

@@ -1,0 +1,253 @@
+// The baseline planners (random, sphere, density, curvature, visibility, pvs) on a partial scan of a
+// sphere whose top cap (z > 0.15, 60 degrees around the pole) was never seen.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/planners/planner.hpp"
+#include "autoscan/planners/pvs_planner.hpp"
+#include "autoscan/planners/sphere_planner.hpp"
+#include "autoscan/poisson/poisson.hpp"
+
+using namespace autoscan;
+using namespace autoscan::planners;
+
+namespace {
+
+constexpr double kRadius = 0.3;
+constexpr double kCapZ = 0.15;  // points above are missing
+
+struct Fixture {
+  ModelState state;
+  std::vector<PointCloud> scans;
+  std::vector<Pose> poses;
+};
+
+/// Sphere samples below the cap, scanned from four sensors on the equator (and, with `bottom`, one
+/// below). A sensor sees the points facing it at incidence below 75 degrees.
+Fixture make_fixture(bool bottom) {
+  Fixture fx;
+  const int n = 5000;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  PointCloud all;
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n;
+    const double r = std::sqrt(1.0 - z * z);
+    const Vec3 u(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    if (kRadius * z > kCapZ) continue;
+    all.positions.push_back(kRadius * u);
+    all.normals.push_back(u);
+  }
+  const double d_o = fx.state.scanner.optimal_distance();
+  std::vector<Vec3> sensors = {Vec3(d_o, 0, 0), Vec3(0, d_o, 0), Vec3(-d_o, 0, 0), Vec3(0, -d_o, 0)};
+  if (bottom) sensors.push_back(Vec3(0.05, 0, -d_o));
+  const double cos_max = std::cos(75.0 * std::numbers::pi / 180.0);
+  for (std::size_t s = 0; s < sensors.size(); ++s) {
+    PointCloud scan;
+    std::vector<double> sx, sy, sz, id;
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      const Vec3 v = (sensors[s] - all.positions[i]).normalized();
+      if (v.dot(all.normals[i]) < cos_max) continue;
+      scan.positions.push_back(all.positions[i]);
+      scan.normals.push_back(all.normals[i]);
+      sx.push_back(sensors[s].x());
+      sy.push_back(sensors[s].y());
+      sz.push_back(sensors[s].z());
+      id.push_back(double(s));
+    }
+    scan.scalars.set("sensor_x", sx);
+    scan.scalars.set("sensor_y", sy);
+    scan.scalars.set("sensor_z", sz);
+    scan.scalars.set("scan_id", id);
+    fx.poses.push_back(Pose::look_at(sensors[s], Vec3::Zero()));
+    fx.state.raw.append(scan);
+    fx.scans.push_back(std::move(scan));
+  }
+  ModelState& st = fx.state;
+  st.iteration = 1;
+  st.consolidated = all;
+  poisson::PoissonOptions po;
+  po.depth = 6;
+  auto rec = poisson::reconstruct(all, po);
+  st.field = rec.field;
+  st.reference_gradient = rec.field->reference_gradient();
+  st.mesh = std::move(rec.mesh);
+  st.mesh.compute_vertex_normals();
+  for (std::size_t i = 0; i < st.mesh.vertices.size(); i += 16) {  // a few thousand iso-points suffice
+    st.iso_points.positions.push_back(st.mesh.vertices[i]);
+    st.iso_points.normals.push_back(st.mesh.vertex_normals[i]);
+  }
+  st.iso_points.scalars.set("f", std::vector<double>(st.iso_points.size(), 0.5));
+  st.acquired_bounds = st.raw.bounds();
+  st.scan_poses = fx.poses;
+  return fx;
+}
+
+const Fixture& fixture(bool bottom) {
+  static const Fixture a = make_fixture(false);
+  static const Fixture b = make_fixture(true);
+  return bottom ? b : a;
+}
+
+PlannerOptions small_options() {
+  PlannerOptions o;
+  o.nbv.grid_resolution = 40;  // a coarse field keeps the test fast
+  o.nbv.max_views = 6;
+  return o;
+}
+
+PlanOutput run(const std::string& name, const Fixture& fx, std::uint64_t seed, const ModelState* state = nullptr,
+               PlannerOptions options = small_options()) {
+  auto p = make_planner(name, options);
+  for (std::size_t i = 0; i < fx.scans.size(); ++i) p->observe_scan(fx.scans[i], fx.poses[i]);
+  Rng rng(seed);
+  return p->plan(state ? *state : fx.state, fx.poses.back(), rng);
+}
+
+const std::vector<std::string> kBaselines = {"random", "sphere", "density", "curvature", "visibility", "pvs"};
+
+void expect_valid_views(const PlanOutput& out, const ModelState& st, const std::string& name) {
+  ASSERT_FALSE(out.views.empty()) << name << ": " << out.diagnostics.dump();
+  EXPECT_LE(out.views.size(), 6u) << name;
+  for (const auto& v : out.views) {
+    std::string why;
+    EXPECT_TRUE(st.rig.reachable(v.pose, &why)) << name << ": " << why;
+    const double d = (v.target - v.pose.position).norm();
+    EXPECT_GE(d, st.scanner.near - 1e-9) << name;
+    EXPECT_LE(d, st.scanner.far + 1e-9) << name;
+    EXPECT_GT(v.pose.direction.normalized().dot((v.target - v.pose.position).normalized()), 0.99) << name;
+    // The target lies on or near the object.
+    EXPECT_LT(v.target.norm(), kRadius + 0.1) << name;
+  }
+  EXPECT_NEAR(out.path_length, path_length(st.rig, Pose::look_at(Vec3(0, -1.2, 0), Vec3::Zero()), out.views), 1e-9)
+      << name;
+}
+
+}  // namespace
+
+TEST(Baselines, AllRegistered) {
+  const auto names = planner_names();
+  for (const auto& n : kBaselines) {
+    EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
+    EXPECT_EQ(make_planner(n)->name(), n);
+    PlannerOptions bad;
+    bad.params = {{"no_such_option", 1}};
+    EXPECT_THROW(make_planner(n, bad), InputError) << n;
+  }
+  PlannerOptions bad;
+  bad.params = {{"candidates", -3}};
+  EXPECT_THROW(make_planner("sphere", bad), InputError);
+}
+
+TEST(Baselines, ReachableViewsInWorkingRange) {
+  const auto& fx = fixture(false);
+  for (const auto& name : kBaselines) expect_valid_views(run(name, fx, 7), fx.state, name);
+}
+
+TEST(Baselines, TurntableRigIsRespected) {
+  const auto& fx = fixture(false);
+  ModelState st = fx.state;
+  st.rig.kind = Rig::Kind::turntable_arm;
+  st.rig.min_radius = 0.9;
+  st.rig.max_radius = 1.5;
+  st.rig.min_height = -0.2;
+  st.rig.max_height = 0.6;
+  for (const auto& name : kBaselines) expect_valid_views(run(name, fx, 7, &st), st, name);
+}
+
+TEST(Baselines, DeterministicForASeed) {
+  const auto& fx = fixture(false);
+  for (const auto& name : kBaselines) {
+    const auto a = run(name, fx, 11);
+    const auto b = run(name, fx, 11);
+    ASSERT_EQ(a.views.size(), b.views.size()) << name;
+    for (std::size_t i = 0; i < a.views.size(); ++i) {
+      EXPECT_EQ(a.views[i].pose.position, b.views[i].pose.position) << name;
+      EXPECT_EQ(a.views[i].pose.direction, b.views[i].pose.direction) << name;
+      EXPECT_EQ(a.views[i].score, b.views[i].score) << name;
+    }
+  }
+}
+
+TEST(Baselines, RandomIsReproducibleAndSeedDependent) {
+  const auto& fx = fixture(false);
+  const auto a = run("random", fx, 1), b = run("random", fx, 1), c = run("random", fx, 2);
+  ASSERT_EQ(a.views.size(), 6u);
+  ASSERT_EQ(a.views.size(), b.views.size());
+  for (std::size_t i = 0; i < a.views.size(); ++i) EXPECT_EQ(a.views[i].pose.position, b.views[i].pose.position);
+  EXPECT_NE(a.views[0].pose.position, c.views[0].pose.position);
+  // Views lie in the working band around the centre.
+  const Vec3 center = fx.state.acquired_bounds.center();
+  for (const auto& v : a.views) {
+    const double d = (v.pose.position - center).norm();
+    EXPECT_GE(d, 1.2 - 0.25 * 0.8 - 1e-9);
+    EXPECT_LE(d, 1.2 + 0.25 * 0.8 + 1e-9);
+  }
+}
+
+TEST(Baselines, SphereGridAndPreferenceForTheUnscannedCap) {
+  const auto& fx = fixture(true);
+  SpherePlanner planner(small_options());
+  for (std::size_t i = 0; i < fx.scans.size(); ++i) planner.observe_scan(fx.scans[i], fx.poses[i]);
+  Rng rng(3);
+  const auto out = planner.plan(fx.state, fx.poses.back(), rng);
+  // The grid: the sensors' rays freed space, the points are occupied.
+  const auto& g = planner.grid();
+  EXPECT_GT(g.count(OccupancyGrid::free), 0u);
+  EXPECT_GT(g.count(OccupancyGrid::occupied), 0u);
+  auto state_at = [&](const Vec3& p) {
+    const long long i = g.index_of(p);
+    EXPECT_GE(i, 0) << p.transpose();
+    return i < 0 ? OccupancyGrid::unknown : g.at(std::size_t(i));
+  };
+  EXPECT_EQ(g.index_of(Vec3(5, 0, 0)), -1);
+  EXPECT_EQ(state_at(fx.state.consolidated.positions[100]), OccupancyGrid::occupied);
+  EXPECT_EQ(state_at(Vec3(0.4, 0.0, 0.0)), OccupancyGrid::free);     // between a sensor and the sphere
+  EXPECT_EQ(state_at(Vec3(0.0, 0.0, 0.3)), OccupancyGrid::unknown);  // above the cap
+  ASSERT_FALSE(out.views.empty());
+  // The best view looks down into the unscanned cap.
+  const auto best = std::max_element(out.views.begin(), out.views.end(),
+                                     [](const auto& a, const auto& b) { return a.score < b.score; });
+  EXPECT_GT(best->pose.position.z(), 0.6) << best->pose.position.transpose();
+  EXPECT_LT(best->pose.direction.normalized().z(), -0.5);
+  // Gains never increase along the greedy order, and every view sees something new.
+  for (const auto& v : out.views) EXPECT_GE(v.score, 1.0);
+}
+
+TEST(Baselines, PvsLooksAtTheCapBoundary) {
+  const auto& fx = fixture(true);
+  const auto boundary = detect_boundary(fx.state.consolidated, PvsPlannerOptions{});
+  ASSERT_GT(boundary.index.size(), 20u);
+  for (std::size_t k = 0; k < boundary.index.size(); ++k) {
+    const Vec3& p = fx.state.consolidated.positions[boundary.index[k]];
+    EXPECT_GT(p.z(), kCapZ - 0.04) << p.transpose();
+    EXPECT_GT(boundary.outward[k].z(), 0.3);  // toward the hole (up along the sphere)
+  }
+  const auto out = run("pvs", fx, 5);
+  ASSERT_GE(out.views.size(), 3u);
+  for (const auto& v : out.views) {
+    EXPECT_NEAR(v.target.z(), kCapZ, 0.04) << v.target.transpose();
+    EXPECT_NEAR(v.target.head<2>().norm(), std::sqrt(kRadius * kRadius - kCapZ * kCapZ), 0.05);
+    EXPECT_GT(v.pose.position.z(), v.target.z() + 0.3);  // from above the rim, tilted toward the hole
+  }
+}
+
+TEST(Baselines, DensityTargetsTheHoleAndVisibilityTheGrazingBand) {
+  // density: the best view looks at the empty cap from above; the bottom was scanned.
+  const auto d = run("density", fixture(true), 1);
+  ASSERT_FALSE(d.views.empty());
+  const auto best =
+      std::max_element(d.views.begin(), d.views.end(), [](const auto& a, const auto& b) { return a.score < b.score; });
+  EXPECT_GT(best->target.z(), 0.0) << best->target.transpose();  // the upper half, at the hole's rim or in it
+  EXPECT_GT(best->pose.position.z(), kCapZ) << best->pose.position.transpose();
+  // visibility: without a bottom scan, the points near the bottom pole were seen only at grazing
+  // angles from the equator; the views look at them from below.
+  const auto v = run("visibility", fixture(false), 1);
+  ASSERT_FALSE(v.views.empty());
+  for (const auto& view : v.views) {
+    EXPECT_LT(view.target.z(), -0.1) << view.target.transpose();
+    EXPECT_LT(view.pose.position.z(), view.target.z());
+  }
+}
