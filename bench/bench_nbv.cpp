@@ -8,7 +8,6 @@
 // Input: a bumpy sphere (concave folds, so visibility matters) with iso-points sampled on it and a
 // confidence map that is high (0.75-1) with three low-confidence patches.
 #include <benchmark/benchmark.h>
-
 #include <sys/resource.h>
 
 #include <cmath>
@@ -88,7 +87,8 @@ PointCloud iso_points(const TriangleMesh& m, int count, std::uint64_t seed) {
 double process_cpu_seconds() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 struct Input {

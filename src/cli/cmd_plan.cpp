@@ -79,8 +79,7 @@ AUTOSCAN_CLI_COMMAND(plan, 70, [](CLI::App& root, autoscan::cli::Globals& g) {
       throw InputError(fmt::format("{}: {}", o->cloud, e.what()));  // name the file
     }
     const nbv::NbvPlanner planner(a.reconstruction.mesh, spec, Rig{}, no);
-    const nbv::PlanResult r =
-        planner.plan(a.confidence.iso_points, from, a.reconstruction.field.get(), g.progress());
+    const nbv::PlanResult r = planner.plan(a.confidence.iso_points, from, a.reconstruction.field.get(), g.progress());
     for (const auto& m : r.diagnostics.messages) log::info("plan: {}", m);
 
     nbv::write_views_json(o->out, r);
@@ -95,7 +94,6 @@ AUTOSCAN_CLI_COMMAND(plan, 70, [](CLI::App& root, autoscan::cli::Globals& g) {
     j["mean_f"] = a.confidence.mean_f;
     j["diagnostics"] = nbv::diagnostics_to_json(r.diagnostics);
     g.emit(j);
-    if (!g.json)
-      fmt::print("wrote {}: {} views, path length {:.3f}\n", o->out, r.views.size(), r.path_length);
+    if (!g.json) fmt::print("wrote {}: {} views, path length {:.3f}\n", o->out, r.views.size(), r.path_length);
   });
 });

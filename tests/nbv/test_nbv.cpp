@@ -44,7 +44,8 @@ struct TwoSpheres {
 };
 
 TEST(NbvField, FastEqualsReferenceOnEveryVoxel) {
-  for (const auto& [seed, share, grid] : {std::tuple{1ull, 0.5, 24}, std::tuple{7ull, 0.0, 20}, std::tuple{3ull, 0.9, 28}}) {
+  for (const auto& [seed, share, grid] :
+       {std::tuple{1ull, 0.5, 24}, std::tuple{7ull, 0.0, 20}, std::tuple{3ull, 0.9, 28}}) {
     TwoSpheres s(260, 60, seed, share);
     ScannerSpec sc;
     NbvOptions o;
@@ -66,7 +67,7 @@ TEST(NbvField, FastEqualsReferenceOnEveryVoxel) {
       positive += b.g[v] > 1e-3 ? 1 : 0;
     }
     EXPECT_LE(max_diff, 1e-6) << "seed " << seed;
-    EXPECT_GT(max_g, 0.5);         // the input exercises the field
+    EXPECT_GT(max_g, 0.5);  // the input exercises the field
     EXPECT_GT(positive, 100u);
     EXPECT_LT(df.rays_cast * 10, dr.rays_cast);  // the fast path casts far fewer rays
     // The stored direction points from the voxel toward its maximiser.
@@ -181,7 +182,8 @@ TEST(NbvPlan, ViewsAreNonAdjacentEmptyAndInRange) {
     EXPECT_GE(v.score, o.min_score);
     for (std::size_t j = i + 1; j < r.views.size(); ++j) {
       const int a = v.cell, b = r.views[j].cell;
-      const int dx = std::abs(a % C - b % C), dy = std::abs(a / C % C - b / C % C), dz = std::abs(a / (C * C) - b / (C * C));
+      const int dx = std::abs(a % C - b % C), dy = std::abs(a / C % C - b / C % C),
+                dz = std::abs(a / (C * C) - b / (C * C));
       EXPECT_GT(std::max({dx, dy, dz}), 1) << "views " << i << " and " << j << " are in adjacent cells";
     }
   }
@@ -252,7 +254,9 @@ TEST(NbvSpace, BoxIsVerticalAlongPrincipalAxesAndCoversTheWorkingRange) {
   std::vector<Vec3> pts;
   Rng rng(3);
   const Vec3 dir(std::cos(0.5), std::sin(0.5), 0);
-  for (int i = 0; i < 400; ++i) pts.push_back(rng.uniform(-1, 1) * dir + 0.1 * rng.uniform(-1, 1) * Vec3(-dir.y(), dir.x(), 0) + Vec3(0, 0, rng.uniform(0, 0.3)));
+  for (int i = 0; i < 400; ++i)
+    pts.push_back(rng.uniform(-1, 1) * dir + 0.1 * rng.uniform(-1, 1) * Vec3(-dir.y(), dir.x(), 0) +
+                  Vec3(0, 0, rng.uniform(0, 0.3)));
   const GridGeometry g = search_box(pts, 0.7, 25);
   EXPECT_NEAR(std::abs(g.axes.col(0).dot(dir)), 1.0, 1e-2);
   EXPECT_NEAR((g.axes.col(2) - Vec3::UnitZ()).norm(), 0.0, 1e-15);
@@ -310,7 +314,8 @@ TEST(NbvPath, VisitsEachViewOnceAndBeatsNearestNeighbour) {
         EXPECT_EQ(sorted, ident);
         EXPECT_LE(po.length, po.nn_length + 1e-12);
         double L = start ? rig.travel_cost(*start, views[po.order[0]]) : 0.0;
-        for (std::size_t i = 1; i < po.order.size(); ++i) L += rig.travel_cost(views[po.order[i - 1]], views[po.order[i]]);
+        for (std::size_t i = 1; i < po.order.size(); ++i)
+          L += rig.travel_cost(views[po.order[i - 1]], views[po.order[i]]);
         EXPECT_NEAR(L, po.length, 1e-9);
         if (!start) {
           EXPECT_EQ(po.order[0], 0u);  // without a current pose the best view comes first
@@ -329,7 +334,8 @@ TEST(NbvWriters, ViewsJsonNrrdAndPng) {
   NbvOptions o;
   o.grid_resolution = 24;
   o.cells = 6;
-  const PlanResult r = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{}, Pose::look_at(Vec3(2, 0, 0), Vec3::Zero()), o, &s.field);
+  const PlanResult r = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{},
+                                            Pose::look_at(Vec3(2, 0, 0), Vec3::Zero()), o, &s.field);
   ASSERT_FALSE(r.views.empty());
   const auto dir = std::filesystem::temp_directory_path() / ("autoscan_nbv_writers_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);

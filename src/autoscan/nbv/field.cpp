@@ -90,8 +90,8 @@ GridGeometry search_box(const std::vector<Vec3>& points, double far, int resolut
 namespace detail {
 
 std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const PointTree& tree,
-                                        const ScannerSpec& scanner, const RayScene& scene,
-                                        const ImplicitField* field, int block_size) {
+                                        const ScannerSpec& scanner, const RayScene& scene, const ImplicitField* field,
+                                        int block_size) {
   const auto& dims = grid.dims;
   const std::size_t nvox = grid.size();
   std::vector<VoxelState> state(nvox, VoxelState::too_far);
@@ -212,10 +212,10 @@ void vvf_reference(ViewingField& vf, const IsoData& iso, const RayScene& scene, 
 
 // ---- fast path ---------------------------------------------------------------------------------
 struct Cluster {
-  std::size_t begin = 0, end = 0;  ///< range in the permuted point arrays
-  Vec3 c = Vec3::Zero();           ///< bounding sphere centre
-  double rho = 0.0;                ///< bounding sphere radius
-  Vec3 m = Vec3::UnitZ();          ///< normal cone axis
+  std::size_t begin = 0, end = 0;    ///< range in the permuted point arrays
+  Vec3 c = Vec3::Zero();             ///< bounding sphere centre
+  double rho = 0.0;                  ///< bounding sphere radius
+  Vec3 m = Vec3::UnitZ();            ///< normal cone axis
   double cos_t = -1.0, sin_t = 0.0;  ///< normal cone half-angle (cos_t = -1: all directions)
   double log_amax = 0.0;
 };
@@ -497,7 +497,8 @@ void vvf_fast(ViewingField& vf, const IsoData& iso, const RayScene& scene, const
               const A4 dx = q.x() - M4(cs.px.data() + o0), dy = q.y() - M4(cs.py.data() + o0),
                        dz = q.z() - M4(cs.pz.data() + o0);
               const A4 rr = (dx.square() + dy.square() + dz.square()).sqrt();
-              const A4 cth = (M4(cs.nx.data() + o0) * dx + M4(cs.ny.data() + o0) * dy + M4(cs.nz.data() + o0) * dz) / rr;
+              const A4 cth =
+                  (M4(cs.nx.data() + o0) * dx + M4(cs.ny.data() + o0) * dy + M4(cs.nz.data() + o0) * dz) / rr;
               Eigen::Map<A4>(val.data() + o0) =
                   M4(cs.loga.data() + o0) - ((rr - W.d_o).square() * W.inv_sd2 + (1.0 - cth).square() * W.inv_so2);
             };

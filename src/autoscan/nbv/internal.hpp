@@ -54,9 +54,9 @@ IsoData prepare_iso(const PointCloud& iso, const NbvOptions& options);
 
 /// Constants of Eq. 4 for one scanner and option set.
 struct Weights {
-  double d_o = 1.0;       ///< optimal distance (d_n + d_f) / 2
-  double inv_sd2 = 1.0;   ///< 1 / (d_n/4)^2
-  double inv_so2 = 1.0;   ///< 1 / (1 - cos sigma)^2
+  double d_o = 1.0;      ///< optimal distance (d_n + d_f) / 2
+  double inv_sd2 = 1.0;  ///< 1 / (d_n/4)^2
+  double inv_so2 = 1.0;  ///< 1 / (1 - cos sigma)^2
   double near = 0.0, far = 0.0;
   static Weights make(const ScannerSpec& s, const NbvOptions& o) {
     Weights w;
@@ -94,8 +94,8 @@ struct PointsAdaptor {
     return false;
   }
 };
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
-                                                   PointsAdaptor, 3, std::uint32_t>;
+using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>, PointsAdaptor,
+                                                   3, std::uint32_t>;
 
 /// A kd-tree owning its adaptor (points must outlive it).
 class PointTree {
@@ -131,8 +131,8 @@ class PointTree {
 /// Candidate mask (§5.1). Empty voxels whose distance to the surface (nearest iso-point) is in
 /// [d_n, d_f]; outside tested with `field` when given, else with the mesh.
 std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const PointTree& tree,
-                                        const ScannerSpec& scanner, const RayScene& scene,
-                                        const ImplicitField* field, int block_size);
+                                        const ScannerSpec& scanner, const RayScene& scene, const ImplicitField* field,
+                                        int block_size);
 
 /// Eq. 4 on every candidate voxel, brute force or fast (see FieldMethod). Fills g, direction, argmax.
 void compute_vvf(ViewingField& vf, const IsoData& iso, const RayScene& scene, const Weights& W,

@@ -20,11 +20,10 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "autoscan/core/implicit.hpp"
 #include "autoscan/core/mesh.hpp"
@@ -45,22 +44,22 @@ enum class FieldMethod {
 };
 
 struct NbvOptions {
-  int grid_resolution = 100;           ///< §5.1: voxels per axis of the search box B (paper: 100^3)
-  double sigma_deg = 25.0;             ///< Eq. 4: sigma, the angular width of the orientation term w_o
-  double distance_width_factor = 0.25;  ///< Eq. 4: the width of w_d is this times d_n (paper: d_n/4)
-  double upsilon_radius_factor = 0.1;  ///< Eq. 5: Upsilon_k = iso-points within this times d_f of s_k (10 %)
-  int cells = 10;                      ///< §5.2: the field is partitioned into cells^3 cells
-  double min_score = 0.05;             ///< §5.2: per-cell maxima with g below this are dropped (paper: "a given
-                                       ///< threshold", no value given; g is in [0, 1])
-  int max_views = 10;                  ///< §5.2 / Table 1: most views per iteration (paper: usually 5-15)
-  double visibility_offset = 2e-3;     ///< w_v: a visibility ray ends this far off the surface along the
-                                       ///< outward normal, relative to the iso-points' bounding-box diagonal
-  double tolerance = 1e-7;             ///< fast path: pairs with w*(1-f) <= tolerance may be ignored, so g is
-                                       ///< exact to within this (must be < 1e-6)
+  int grid_resolution = 100;               ///< §5.1: voxels per axis of the search box B (paper: 100^3)
+  double sigma_deg = 25.0;                 ///< Eq. 4: sigma, the angular width of the orientation term w_o
+  double distance_width_factor = 0.25;     ///< Eq. 4: the width of w_d is this times d_n (paper: d_n/4)
+  double upsilon_radius_factor = 0.1;      ///< Eq. 5: Upsilon_k = iso-points within this times d_f of s_k (10 %)
+  int cells = 10;                          ///< §5.2: the field is partitioned into cells^3 cells
+  double min_score = 0.05;                 ///< §5.2: per-cell maxima with g below this are dropped (paper: "a given
+                                           ///< threshold", no value given; g is in [0, 1])
+  int max_views = 10;                      ///< §5.2 / Table 1: most views per iteration (paper: usually 5-15)
+  double visibility_offset = 2e-3;         ///< w_v: a visibility ray ends this far off the surface along the
+                                           ///< outward normal, relative to the iso-points' bounding-box diagonal
+  double tolerance = 1e-7;                 ///< fast path: pairs with w*(1-f) <= tolerance may be ignored, so g is
+                                           ///< exact to within this (must be < 1e-6)
   FieldMethod method = FieldMethod::fast;  ///< see FieldMethod
-  int block_size = 4;                  ///< fast path: voxels per side of a block sharing one cluster list
-  int cluster_size = 32;               ///< fast path: most iso-points per bounding cluster
-  bool optimize_path = true;           ///< order views by nearest neighbour, then exact (<= 10 views) or 2-opt
+  int block_size = 4;                      ///< fast path: voxels per side of a block sharing one cluster list
+  int cluster_size = 32;                   ///< fast path: most iso-points per bounding cluster
+  bool optimize_path = true;               ///< order views by nearest neighbour, then exact (<= 10 views) or 2-opt
 
   /// Throws InputError naming the option for values out of range.
   void validate() const;
@@ -69,13 +68,15 @@ struct NbvOptions {
 /// The voxel grid over the search box B: an oriented box (Z vertical, X-Y along the horizontal
 /// principal axes) split into dims voxels. Voxel (i, j, k) has linear index i + nx*(j + ny*k).
 struct GridGeometry {
-  Vec3 origin = Vec3::Zero();     ///< world position of the box corner (lower corner of voxel (0,0,0))
-  Mat3 axes = Mat3::Identity();   ///< columns: the box's X, Y, Z axes in world coordinates (Z = +Z world)
+  Vec3 origin = Vec3::Zero();        ///< world position of the box corner (lower corner of voxel (0,0,0))
+  Mat3 axes = Mat3::Identity();      ///< columns: the box's X, Y, Z axes in world coordinates (Z = +Z world)
   std::array<int, 3> dims{0, 0, 0};  ///< voxels per axis
-  Vec3 spacing = Vec3::Zero();    ///< voxel size along each axis
+  Vec3 spacing = Vec3::Zero();       ///< voxel size along each axis
 
   std::size_t size() const { return std::size_t(dims[0]) * dims[1] * dims[2]; }
-  std::size_t index(int i, int j, int k) const { return std::size_t(i) + std::size_t(dims[0]) * (j + std::size_t(dims[1]) * k); }
+  std::size_t index(int i, int j, int k) const {
+    return std::size_t(i) + std::size_t(dims[0]) * (j + std::size_t(dims[1]) * k);
+  }
   std::array<int, 3> ijk(std::size_t idx) const;
   /// World position of a voxel centre.
   Vec3 center(int i, int j, int k) const;
@@ -99,34 +100,34 @@ struct ViewingField {
 };
 
 struct NbvView {
-  Pose pose;               ///< position v_i, direction toward the target, up = +Z made orthogonal
-  double score = 0.0;      ///< g(v_i), Eq. 4
+  Pose pose;                   ///< position v_i, direction toward the target, up = +Z made orthogonal
+  double score = 0.0;          ///< g(v_i), Eq. 4
   Vec3 target = Vec3::Zero();  ///< s_k', Eq. 5
-  std::size_t voxel = 0;   ///< linear voxel index of v_i
-  int cell = 0;            ///< linear cell index (§5.2)
-  int seed_point = -1;     ///< s_k, the iso-point maximising Eq. 4 at v_i
-  int target_point = -1;   ///< s_k', the iso-point chosen by Eq. 5
-  double eta = 0.0;        ///< Eq. 5 terms at the chosen s_k'
+  std::size_t voxel = 0;       ///< linear voxel index of v_i
+  int cell = 0;                ///< linear cell index (§5.2)
+  int seed_point = -1;         ///< s_k, the iso-point maximising Eq. 4 at v_i
+  int target_point = -1;       ///< s_k', the iso-point chosen by Eq. 5
+  double eta = 0.0;            ///< Eq. 5 terms at the chosen s_k'
   double zeta = 0.0;
 };
 
 struct NbvDiagnostics {
   std::size_t iso_points = 0;
-  std::size_t active_points = 0;    ///< iso-points with 1 - f > tolerance (the others cannot raise g)
+  std::size_t active_points = 0;  ///< iso-points with 1 - f > tolerance (the others cannot raise g)
   std::size_t voxels = 0;
-  std::size_t candidates = 0;       ///< empty voxels within [d_n, d_f] of the surface
-  std::size_t clusters = 0;         ///< fast path: bounding clusters of active iso-points
-  std::size_t pair_evaluations = 0;  ///< (voxel, iso-point) weight evaluations
-  std::size_t rays_cast = 0;        ///< visibility rays for the field
-  std::size_t bound_evaluations = 0;  ///< fast path: (block or voxel, cluster) bounds evaluated
-  std::size_t cell_maxima = 0;      ///< §5.2: cells with a candidate of g > 0
-  std::size_t above_threshold = 0;  ///< cell maxima with g >= min_score
+  std::size_t candidates = 0;            ///< empty voxels within [d_n, d_f] of the surface
+  std::size_t clusters = 0;              ///< fast path: bounding clusters of active iso-points
+  std::size_t pair_evaluations = 0;      ///< (voxel, iso-point) weight evaluations
+  std::size_t rays_cast = 0;             ///< visibility rays for the field
+  std::size_t bound_evaluations = 0;     ///< fast path: (block or voxel, cluster) bounds evaluated
+  std::size_t cell_maxima = 0;           ///< §5.2: cells with a candidate of g > 0
+  std::size_t above_threshold = 0;       ///< cell maxima with g >= min_score
   std::size_t dropped_unreachable = 0;   ///< views the rig cannot reach (dropped, never moved)
   std::size_t dropped_out_of_range = 0;  ///< views with no visible target within [d_n, d_f]
-  double nn_path_length = 0.0;      ///< path length of the nearest-neighbour order
-  double seconds_space = 0.0;       ///< search space and candidates
-  double seconds_field = 0.0;       ///< Eq. 4
-  double seconds_select = 0.0;      ///< §5.2 selection and Eq. 5 aiming
+  double nn_path_length = 0.0;           ///< path length of the nearest-neighbour order
+  double seconds_space = 0.0;            ///< search space and candidates
+  double seconds_field = 0.0;            ///< Eq. 4
+  double seconds_select = 0.0;           ///< §5.2 selection and Eq. 5 aiming
   double seconds_path = 0.0;
   double seconds_total = 0.0;
   std::vector<std::string> messages;  ///< human-readable notes (e.g. "no low-confidence iso-points")

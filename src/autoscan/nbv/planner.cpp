@@ -15,8 +15,8 @@ namespace autoscan::nbv {
 void NbvOptions::validate() const {
   AUTOSCAN_REQUIRE(grid_resolution >= 1, "grid resolution must be at least 1 (got {})", grid_resolution);
   AUTOSCAN_REQUIRE(grid_resolution <= 1024, "grid resolution {} is too large (at most 1024)", grid_resolution);
-  AUTOSCAN_REQUIRE(std::isfinite(sigma_deg) && sigma_deg > 0 && sigma_deg < 180, "sigma_deg must be in (0, 180) (got {})",
-                   sigma_deg);
+  AUTOSCAN_REQUIRE(std::isfinite(sigma_deg) && sigma_deg > 0 && sigma_deg < 180,
+                   "sigma_deg must be in (0, 180) (got {})", sigma_deg);
   AUTOSCAN_REQUIRE(std::isfinite(distance_width_factor) && distance_width_factor > 0,
                    "distance_width_factor must be positive (got {})", distance_width_factor);
   AUTOSCAN_REQUIRE(std::isfinite(upsilon_radius_factor) && upsilon_radius_factor >= 0,
@@ -24,8 +24,8 @@ void NbvOptions::validate() const {
   AUTOSCAN_REQUIRE(cells >= 1, "cells must be at least 1 (got {})", cells);
   AUTOSCAN_REQUIRE(std::isfinite(min_score) && min_score >= 0, "min_score must be >= 0 (got {})", min_score);
   AUTOSCAN_REQUIRE(max_views >= 0, "max_views must be >= 0 (got {})", max_views);
-  AUTOSCAN_REQUIRE(std::isfinite(visibility_offset) && visibility_offset >= 0, "visibility_offset must be >= 0 (got {})",
-                   visibility_offset);
+  AUTOSCAN_REQUIRE(std::isfinite(visibility_offset) && visibility_offset >= 0,
+                   "visibility_offset must be >= 0 (got {})", visibility_offset);
   AUTOSCAN_REQUIRE(tolerance > 0 && tolerance < 1e-6, "tolerance must be in (0, 1e-6) (got {})", tolerance);
   AUTOSCAN_REQUIRE(block_size >= 1 && cluster_size >= 1, "block_size and cluster_size must be >= 1");
 }
@@ -119,8 +119,8 @@ AimResult aim(const Vec3& v, int seed, const detail::IsoData& iso, const detail:
   const Vec3 axis = (iso.p[sk] - v).normalized();
   const double dist_k = (iso.p[sk] - v).norm();
   const double ups_r = o.upsilon_radius_factor * sc.far;
-  const double cone = std::atan(std::sqrt(th * th + tv * tv)) +
-                      (ups_r < dist_k ? std::asin(ups_r / dist_k) : std::numbers::pi) + 1e-6;
+  const double cone =
+      std::atan(std::sqrt(th * th + tv * tv)) + (ups_r < dist_k ? std::asin(ups_r / dist_k) : std::numbers::pi) + 1e-6;
   const double cos_cone = cone >= std::numbers::pi ? -1.0 : std::cos(cone);
   struct Seen {
     std::uint32_t j;
@@ -214,7 +214,8 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
     if (vf.state[v] != VoxelState::candidate || !(vf.g[v] > 0.0)) continue;
     const auto c = cell_of(v);
     const std::size_t ci = std::size_t(c[0]) + std::size_t(C[0]) * (c[1] + std::size_t(C[1]) * c[2]);
-    if (cell_best[ci] < 0 || vf.g[v] > vf.g[static_cast<std::size_t>(cell_best[ci])]) cell_best[ci] = static_cast<long long>(v);
+    if (cell_best[ci] < 0 || vf.g[v] > vf.g[static_cast<std::size_t>(cell_best[ci])])
+      cell_best[ci] = static_cast<long long>(v);
   }
   struct Max {
     std::size_t voxel;
@@ -223,13 +224,14 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
   };
   std::vector<Max> maxima;
   for (std::size_t ci = 0; ci < ncells; ++ci)
-    if (cell_best[ci] >= 0) maxima.push_back({static_cast<std::size_t>(cell_best[ci]), ci, vf.g[static_cast<std::size_t>(cell_best[ci])]});
+    if (cell_best[ci] >= 0)
+      maxima.push_back({static_cast<std::size_t>(cell_best[ci]), ci, vf.g[static_cast<std::size_t>(cell_best[ci])]});
   diag.cell_maxima = maxima.size();
   std::erase_if(maxima, [&](const Max& m) { return m.g < o.min_score; });
   diag.above_threshold = maxima.size();
   if (diag.active_points > 0 && maxima.empty())
-    diag.messages.push_back(fmt::format("no voxel scores g >= min_score = {} (largest g = {:.3g}): no views", o.min_score,
-                                        vf.g.empty() ? 0.0 : *std::max_element(vf.g.begin(), vf.g.end())));
+    diag.messages.push_back(fmt::format("no voxel scores g >= min_score = {} (largest g = {:.3g}): no views",
+                                        o.min_score, vf.g.empty() ? 0.0 : *std::max_element(vf.g.begin(), vf.g.end())));
   std::sort(maxima.begin(), maxima.end(),
             [](const Max& a, const Max& b) { return a.g > b.g || (a.g == b.g && a.voxel < b.voxel); });
   const detail::Weights W = detail::Weights::make(sc, o);

@@ -46,8 +46,8 @@ RayScene::RayScene(const TriangleMesh& mesh) {
   RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                          3 * sizeof(float), mesh.vertices.size()));
-  auto* ib = static_cast<unsigned*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.faces.size()));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                            3 * sizeof(unsigned), mesh.faces.size()));
   AUTOSCAN_CHECK(vb != nullptr && ib != nullptr, "Embree: could not allocate the mesh buffers");
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
     for (int c = 0; c < 3; ++c) vb[3 * i + c] = static_cast<float>(mesh.vertices[i][c]);

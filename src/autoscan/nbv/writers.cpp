@@ -1,13 +1,11 @@
 // Outputs of the nbv stage: views JSON (../shared/PRODUCT.md), the field as NRRD, a slice as PNG.
 #include <png.h>
 
-#include <csetjmp>
-
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <csetjmp>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <ostream>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -85,7 +83,9 @@ namespace {
 
 std::array<std::uint8_t, 3> jet(double t) {
   t = std::clamp(t, 0.0, 1.0);
-  auto ch = [&](double c) { return static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(1.5 - std::abs(4.0 * t - c), 0.0, 1.0))); };
+  auto ch = [&](double c) {
+    return static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(1.5 - std::abs(4.0 * t - c), 0.0, 1.0)));
+  };
   return {ch(3.0), ch(2.0), ch(1.0)};
 }
 

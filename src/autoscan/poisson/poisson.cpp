@@ -33,6 +33,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <numbers>
 #include <numeric>
@@ -168,38 +169,38 @@ void stencils(int x, int y, int z, int n, double* L, Vec3* G) {
       }
 }
 
-/// Trilinear prolongation from a coarse depth (sorted keys `ckeys`, values `cval`) to the nodes
+/// Trilinear prolongation from a coarse depth (node index `cindex`, values `cval`) to the nodes
 /// `fkeys` of the next depth: out[i] += sum over the parents of fine node i (weights 1 or 1/2 per
-/// axis). Parents missing from ckeys count as zero.
+/// axis). Every parent must be stored (the node sets are nested); checked.
 template <class T>
-void prolong(const std::vector<std::uint64_t>& ckeys, const std::vector<T>& cval, const std::vector<std::uint64_t>& fkeys,
+void prolong(const KeyIndex& cindex, const std::vector<T>& cval, const std::vector<std::uint64_t>& fkeys,
              std::vector<T>& out) {
-  const std::size_t nE = fkeys.size();
-  std::vector<std::int32_t> ci(nE);
-  for (int m = 0; m < 8; ++m) {
-    match_sorted(
-        nE,
-        [&](std::size_t i) {
-          const std::uint64_t key = fkeys[i];
-          const int c[3] = {key_x(key), key_y(key), key_z(key)};
-          int p[3];
-          for (int a = 0; a < 3; ++a) {
-            const int up = (m >> a) & 1;
-            if (up && !(c[a] & 1)) return kNoKey;
-            p[a] = (c[a] + up) >> 1;
-          }
-          return pack(p[0], p[1], p[2]);
-        },
-        ckeys, ci.data(), 1);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nE, 4096), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        if (ci[i] < 0) continue;
-        const std::uint64_t key = fkeys[i];
-        const double w = ((key_x(key) & 1) ? 0.5 : 1.0) * ((key_y(key) & 1) ? 0.5 : 1.0) * ((key_z(key) & 1) ? 0.5 : 1.0);
-        out[i] += w * cval[ci[i]];
+  std::atomic<std::size_t> missing{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fkeys.size(), 4096), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const std::uint64_t key = fkeys[i];
+      const int c[3] = {key_x(key), key_y(key), key_z(key)};
+      for (int m = 0; m < 8; ++m) {
+        int p[3];
+        double w = 1.0;
+        bool skip = false;
+        for (int a = 0; a < 3; ++a) {
+          const int up = (m >> a) & 1;
+          if (up && !(c[a] & 1)) skip = true;
+          p[a] = (c[a] + up) >> 1;
+          if (c[a] & 1) w *= 0.5;
+        }
+        if (skip) continue;
+        const int j = cindex.find(pack(p[0], p[1], p[2]));
+        if (j < 0) {
+          missing.fetch_add(1, std::memory_order_relaxed);
+          continue;
+        }
+        out[i] += w * cval[j];
       }
-    });
-  }
+    }
+  });
+  AUTOSCAN_CHECK(missing.load() == 0, "poisson: {} nodes miss a parent at the coarser depth", missing.load());
 }
 
 // ---- the solver --------------------------------------------------------------------------------
@@ -360,10 +361,7 @@ void Solver::estimate_density() {
       // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at floor(sd), so
       // that the kernel width varies smoothly with the density.
       const double sd = 0.5 * (lr - std::log2(spn));
-      // The octree goes one depth below the finest splat depth, so that the field resolves the
-      // splat kernels everywhere; refining only to the splat depth makes the resolution flip
-      // between neighbours where the density crosses a threshold, and the surface gets bumps (even
-      // spurious handles) there.
+      // The octree is refined around the sample down to its finest splat depth.
       if (sd >= D_) {
         s_.depth[i] = static_cast<std::int8_t>(D_);
         s_.frac[i] = 1.0;
@@ -371,13 +369,13 @@ void Solver::estimate_density() {
       } else if (sd < min_depth) {
         s_.depth[i] = static_cast<std::int8_t>(min_depth);
         s_.frac[i] = 1.0;
-        s_.refine[i] = static_cast<std::int8_t>(std::min(D_, min_depth + 1));
+        s_.refine[i] = s_.depth[i];
       } else {
         const int s0 = static_cast<int>(std::floor(sd));
         const double t = sd - s0;
         s_.depth[i] = static_cast<std::int8_t>(t > 0.0 ? s0 + 1 : s0);
         s_.frac[i] = t > 0.0 ? t : 1.0;
-        s_.refine[i] = static_cast<std::int8_t>(std::min(D_, s0 + 2));
+        s_.refine[i] = s_.depth[i];
       }
     }
   });
@@ -434,8 +432,9 @@ void Solver::build_level_cells(Level& L) {
   const int shift = 3 * (D_ - L.depth);
   L.samples.clear();
   L.cell_begin.clear();
-  // A sample splatted coarser than this depth is still screened here when its cell is complete
-  // (all corners stored), as PoissonRecon evaluates every point constraint at every depth.
+  // A sample is screened at every depth where its cell is complete (all corners stored), as
+  // PoissonRecon evaluates every point constraint at every depth; deeper than the sample's splat
+  // depth its screening weight stops growing (see screen_weight).
   std::vector<std::uint8_t> complete(s_.u.size(), 1);
   tbb::parallel_for(std::size_t{0}, s_.u.size(), [&](std::size_t i) {
     if (s_.refine[i] >= L.depth) return;
@@ -622,10 +621,10 @@ void Solver::solve(FieldData& field) {
     ld.splat_samples = L.splat;
     // P = chi_{<d} at the depth-d nodes: trilinear interpolation of chi_{<=d-1}.
     std::vector<double> P(nE, 0.0);
-    if (d > 0) prolong(field.levels[d - 1].keys, field.levels[d - 1].value, L.keys, P);
+    if (d > 0) prolong(field.levels[d - 1].index, field.levels[d - 1].value, L.keys, P);
     // V splatted at coarser depths, as depth-d coefficients (V_{<d} is trilinear on depth-d cells).
     std::vector<Vec3> W(nE, Vec3::Zero());
-    if (d > 0 && !Vc.empty()) prolong(field.levels[d - 1].keys, Vc, L.keys, W);
+    if (d > 0 && !Vc.empty()) prolong(field.levels[d - 1].index, Vc, L.keys, W);
     build_neighbours(L, nbr);
     // b_d = Int V_{>=d} . grad H (from compute_rhs) + Int V_{<d} . grad H.
     bool any_coarse_v = false;
@@ -663,6 +662,11 @@ void Solver::solve(FieldData& field) {
       return out;
     };
     const double omega = opt_.screening * std::ldexp(1.0, static_cast<int>(d));
+    // Screening weight of sample p at this depth: alpha 2^min(d, s_p) w_p a_p.
+    auto screen_weight = [&](std::uint32_t p, std::size_t dd) {
+      return opt_.screening * std::ldexp(1.0, std::min(static_cast<int>(dd), static_cast<int>(s_.depth[p]))) * s_.w[p] *
+             s_.area[p];
+    };
     // Screening per cell: S restricted to a cell is the 8x8 matrix sum_p omega w_p a_p W(p) W(p)^T;
     // precomputed when cells hold several samples (cheaper than visiting every sample each time).
     const std::size_t ncells = L.cell_begin.size() - 1;
@@ -677,7 +681,7 @@ void Solver::solve(FieldData& field) {
             const std::uint32_t p = L.samples[j];
             double w[8];
             weights(L, s_.u[p], w);
-            const double f = omega * s_.w[p] * s_.area[p];
+            const double f = screen_weight(p, d);
             for (int q = 0; q < 8; ++q)
               for (int k = 0; k < 8; ++k) M[q * 8 + k] += f * w[q] * w[k];
           }
@@ -718,7 +722,7 @@ void Solver::solve(FieldData& field) {
             weights(L, s_.u[p], w);
             double v = 0.0;
             for (int q = 0; q < 8; ++q) v += w[q] * x[idx[q]];
-            const double f = omega * s_.w[p] * s_.area[p] * v;
+            const double f = screen_weight(p, d) * v;
             for (int q = 0; q < 8; ++q) y[idx[q]] += f * w[q];
           }
         });
@@ -740,7 +744,7 @@ void Solver::solve(FieldData& field) {
           const std::uint32_t p = L.samples[j];
           double w[8];
           weights(L, s_.u[p], w);
-          const double f = omega * s_.w[p] * s_.area[p];
+          const double f = screen_weight(p, d);
           for (int q = 0; q < 8; ++q) diag[idx[q]] += f * w[q] * w[q];
         }
       });

@@ -32,11 +32,10 @@ namespace autoscan::poisson {
 struct PoissonOptions {
   int depth = 8;                   ///< maximum octree depth D [--depth]; 2..12
   double screening = 4.0;          ///< screening weight alpha [--pointWeight], scaled by 2^d at depth d
-  /// A sample is splatted at the finest depth d where rho * h_d^2 >= this (rho: local samples per unit
-  /// area, h_d: cell side), i.e. a cell's cross-section holds this many samples. Close to
-  /// PoissonRecon's --samplesPerNode 1.5 (which counts samples per cell volume); 1.5 here loses thin
-  /// parts (armadillo ears) at 100k samples, depth 8.
-  double samples_per_node = 1.0;
+  /// Density-adaptive splat depth: a sample goes to the (fractional) depth d where rho * h_d^2 equals
+  /// this (rho: local samples per unit area, h_d: cell side), shared between the two nearest depths
+  /// [--samplesPerNode].
+  double samples_per_node = 1.5;
   double scale = 1.1;              ///< bounding cube side = scale * largest side of the points' box [--scale]
   int full_depth = 5;              ///< depths up to this one are full grids, solved to convergence [--fullDepth]
   int fine_iterations = 12;        ///< conjugate-gradient iterations per sparse depth (cascadic) [--iters]

@@ -4,6 +4,8 @@
 
 #include <fstream>
 #include <optional>
+#include <unordered_map>
+#include <cmath>
 #include <sstream>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -107,6 +109,43 @@ main{display:grid;grid-template-columns:minmax(0,1fr) 380px;gap:12px;padding:12p
 .legend span{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:middle}
 )CSS";
 
+// Display decimation of large meshes by vertex clustering: vertices are merged per cell of a grid
+// whose cell size gives about `max_faces` faces (faces ≈ 2·area/h²); a cell's vertex is the mean of
+// its members and carries the mean of their scalars; collapsed faces are dropped.
+TriangleMesh cluster_vertices(const TriangleMesh& mesh, std::size_t max_faces) {
+  const double h = std::sqrt(2.0 * std::max(mesh.area(), 1e-12) / static_cast<double>(max_faces));
+  const AABB box = mesh.bounds();
+  std::unordered_map<std::uint64_t, int> cell_of;
+  std::vector<int> remap(mesh.vertices.size());
+  TriangleMesh out;
+  std::vector<int> members;
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    const Vec3 q = (mesh.vertices[v] - box.min) / h;
+    const auto key = (static_cast<std::uint64_t>(q.x()) << 42) ^ (static_cast<std::uint64_t>(q.y()) << 21) ^
+                     static_cast<std::uint64_t>(q.z());
+    auto [it, inserted] = cell_of.try_emplace(key, static_cast<int>(out.vertices.size()));
+    if (inserted) {
+      out.vertices.push_back(Vec3::Zero());
+      members.push_back(0);
+    }
+    remap[v] = it->second;
+    out.vertices[it->second] += mesh.vertices[v];
+    ++members[it->second];
+  }
+  for (std::size_t i = 0; i < out.vertices.size(); ++i) out.vertices[i] /= members[i];
+  for (const auto& [name, col] : mesh.vertex_scalars.columns()) {
+    std::vector<double> acc(out.vertices.size(), 0.0);
+    for (std::size_t v = 0; v < col.size(); ++v) acc[remap[v]] += col[v];
+    for (std::size_t i = 0; i < acc.size(); ++i) acc[i] /= members[i];
+    out.vertex_scalars.set(name, std::move(acc));
+  }
+  for (const auto& f : mesh.faces) {
+    const Tri t{remap[f[0]], remap[f[1]], remap[f[2]]};
+    if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) out.faces.push_back(t);
+  }
+  return out;
+}
+
 }  // namespace
 
 ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
@@ -185,17 +224,15 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
       result.points_shown += keep.size();
     }
     if (fs::exists(idir / "mesh.ply", ec)) {
-      const TriangleMesh mesh = io::read_mesh(idir / "mesh.ply");
+      TriangleMesh mesh = io::read_mesh(idir / "mesh.ply");
+      if (mesh.faces.size() > opt.max_mesh_faces) mesh = cluster_vertices(mesh, opt.max_mesh_faces);
       std::vector<float> pos;
       pos.reserve(mesh.vertices.size() * 3);
       for (const auto& v : mesh.vertices)
         for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(v[c]));
       std::vector<std::uint32_t> idx;
-      const std::size_t stride = mesh.faces.size() > opt.max_mesh_faces
-                                     ? (mesh.faces.size() + opt.max_mesh_faces - 1) / opt.max_mesh_faces
-                                     : 1;
-      for (std::size_t f = 0; f < mesh.faces.size(); f += stride)
-        for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(mesh.faces[f][c]));
+      for (const auto& f : mesh.faces)
+        for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(f[c]));
       json m{{"vertices", mesh.vertices.size()}, {"positions", bufs.add(pos)}, {"indices", bufs.add(idx)}};
       json scalars = json::object();
       for (const char* s : {"f", "f_g", "f_s"}) {

@@ -16,7 +16,7 @@ namespace autoscan::report {
 
 struct ReportOptions {
   std::size_t max_points = 300000;    ///< display budget per iteration's point cloud
-  std::size_t max_mesh_faces = 600000;  ///< meshes larger than this are shown without some faces (strided)
+  std::size_t max_mesh_faces = 200000;  ///< larger meshes are decimated for display (vertex clustering)
   std::uint64_t seed = 1;             ///< for the display decimation
   std::string title;                  ///< page title; default: the session directory's name
 };
