@@ -72,8 +72,33 @@ Run in_child(const std::string& tag, F&& body) {
 
 int main(int argc, char** argv) {
   const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
-  std::printf("| model | points | depth | ours s | Open3D s | time ratio ours/peer | ours peak MiB | Open3D peak MiB | "
-              "ours Chamfer | Open3D Chamfer | Chamfer ratio | ours F@0.5%% | Open3D F@0.5%% | ours V | Open3D V |\n");
+  if (argc > 1 && std::string(argv[1]) == "--sweep") {  // our options on bunny00, 100k points, depth 8
+    TriangleMesh truth = io::read_mesh(std::string(AUTOSCAN_MODELS_DIR) + "/bunny00.off");
+    normalize_to_benchmark_frame(truth);
+    Rng rng(7);
+    PointCloud pc = sample_surface(truth, 100000, rng);
+    pc.scalars.clear();
+    for (int it : {12, 40})
+      for (double scr : {4.0, 16.0})
+        for (double spn : {1.5, 4.0}) {
+          poisson::PoissonOptions opt;
+          opt.depth = 8;
+          opt.fine_iterations = it;
+          opt.screening = scr;
+          opt.samples_per_node = spn;
+          const auto t0 = std::chrono::steady_clock::now();
+          const auto res = poisson::reconstruct(pc, opt);
+          const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          const auto e = eval::evaluate_mesh(res.mesh, truth);
+          std::printf("iters %d screening %g spn %g: %.2f s, accuracy %.6f completeness %.6f chamfer %.6f F %.4f\n", it,
+                      scr, spn, s, e.accuracy.mean, e.completeness.mean, 0.5 * (e.accuracy.mean + e.completeness.mean),
+                      e.fscore);
+        }
+    return 0;
+  }
+  std::printf(
+      "| model | points | depth | ours s | Open3D s | time ratio ours/peer | ours peak MiB | Open3D peak MiB | "
+      "ours Chamfer | Open3D Chamfer | Chamfer ratio | ours F@0.5%% | Open3D F@0.5%% | ours V | Open3D V |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* name : {"bunny00", "armadillo"}) {
     if (quick && std::string(name) != "bunny00") continue;
@@ -95,7 +120,8 @@ int main(int argc, char** argv) {
           open3d::geometry::PointCloud o3;
           o3.points_ = pc.positions;
           o3.normals_ = pc.normals;
-          auto [mesh, dens] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(o3, depth, 0, 1.1f, false, -1);
+          auto [mesh, dens] =
+              open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(o3, depth, 0, 1.1f, false, -1);
           TriangleMesh m;
           m.vertices = mesh->vertices_;
           for (const auto& t : mesh->triangles_) m.faces.push_back({t[0], t[1], t[2]});
@@ -110,10 +136,12 @@ int main(int argc, char** argv) {
         const auto eo_peer = eval::evaluate_mesh(peer.mesh, truth, eo);
         const double ch_ours = 0.5 * (eo_ours.accuracy.mean + eo_ours.completeness.mean);
         const double ch_peer = 0.5 * (eo_peer.accuracy.mean + eo_peer.completeness.mean);
-        std::printf("| %s | %zuk | %d | %.2f | %.2f | **%.2f** | %.0f | %.0f | %.5f | %.5f | **%.3f** | %.4f | %.4f | %zu | %zu |\n",
-                    name, n / 1000, depth, ours.seconds, peer.seconds, ours.seconds / peer.seconds, ours.peak_mib,
-                    peer.peak_mib, ch_ours, ch_peer, ch_ours / ch_peer, eo_ours.fscore, eo_peer.fscore,
-                    ours.mesh.vertices.size(), peer.mesh.vertices.size());
+        std::printf(
+            "| %s | %zuk | %d | %.2f | %.2f | **%.2f** | %.0f | %.0f | %.5f | %.5f | **%.3f** | %.4f | %.4f | %zu | "
+            "%zu |\n",
+            name, n / 1000, depth, ours.seconds, peer.seconds, ours.seconds / peer.seconds, ours.peak_mib,
+            peer.peak_mib, ch_ours, ch_peer, ch_ours / ch_peer, eo_ours.fscore, eo_peer.fscore,
+            ours.mesh.vertices.size(), peer.mesh.vertices.size());
         std::fflush(stdout);
       }
     }

@@ -61,7 +61,8 @@ AUTOSCAN_CLI_COMMAND(reconstruct, 30, [](CLI::App& root, autoscan::cli::Globals&
   sub->add_option("--trim", o->poisson.trim, "Drop this share [0,1) of the vertices with the lowest density")
       ->capture_default_str();
   sub->add_option("--grid-out", o->grid_out, "Also write the field sampled on a grid (.nrrd, or raw float32)");
-  sub->add_option("--grid-res", o->grid_res, "Grid resolution per axis for --grid-out (2..1024)")->capture_default_str();
+  sub->add_option("--grid-res", o->grid_res, "Grid resolution per axis for --grid-out (2..1024)")
+      ->capture_default_str();
   sub->add_flag("--ascii", o->ascii, "Write a text PLY/STL instead of binary");
   g.on_run(sub, [o, &g] {
     using namespace autoscan;

@@ -40,7 +40,8 @@ TEST(CliReconstruct, WritesAClosedMeshGridAndJson) {
   EXPECT_GT(j["vertices"].get<int>(), 100);
   EXPECT_GT(j["faces"].get<int>(), 100);
   EXPECT_TRUE(j.contains("iso_value"));
-  for (const char* k : {"octree", "splat", "system", "solve", "extract", "total"}) EXPECT_TRUE(j["seconds"].contains(k)) << k;
+  for (const char* k : {"octree", "splat", "system", "solve", "extract", "total"})
+    EXPECT_TRUE(j["seconds"].contains(k)) << k;
   const auto mesh = autoscan::io::read_mesh(out);
   EXPECT_EQ(mesh.faces.size(), j["faces"].get<std::size_t>());
   EXPECT_TRUE(mesh.vertex_scalars.has("density"));

@@ -1,7 +1,6 @@
 #pragma once
 // Shared helpers of the Poisson tests: analytic samplers, a small OFF reader, mesh topology.
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
 #include <fstream>

@@ -41,7 +41,6 @@ TEST(Poisson, SphereIsClosedGenus0WithinHalfACell) {
   ASSERT_TRUE(res.mesh.vertex_scalars.has("density"));
 }
 
-
 TEST(Poisson, TorusIsGenus1) {
   PoissonOptions opt;
   opt.depth = 7;
@@ -93,7 +92,8 @@ TEST(Poisson, GradientIsExactDerivativeOfTheValue) {
       if (std::abs(fd - g[a]) > 1e-4 * (1 + std::abs(g[a]))) {
         const double fl = (res.field->value(p) - res.field->value(p - dp)) / h;
         const double fr = (res.field->value(p + dp) - res.field->value(p)) / h;
-        EXPECT_TRUE(std::abs(fl - g[a]) < 1e-3 * (1 + std::abs(g[a])) || std::abs(fr - g[a]) < 1e-3 * (1 + std::abs(g[a])))
+        EXPECT_TRUE(std::abs(fl - g[a]) < 1e-3 * (1 + std::abs(g[a])) ||
+                    std::abs(fr - g[a]) < 1e-3 * (1 + std::abs(g[a])))
             << "p " << p.transpose() << " axis " << a << " g " << g[a] << " fd " << fd << " fl " << fl << " fr " << fr
             << " v " << res.field->value(p - dp) << " " << res.field->value(p) << " " << res.field->value(p + dp);
       }
@@ -148,12 +148,12 @@ TEST(Poisson, FieldIsBlurryOverAHoleInTheData) {
 TEST(Poisson, ReferenceGradientIsCalibrated) {
   // Densely, cleanly sampled spheres of different sizes at several depths: the mean |grad chi| at
   // the samples is the reference gradient (within 15 %), in world units whatever the scale.
-  for (int depth : {6, 7, 8}) {
+  for (int depth : {6, 8}) {
     for (double r : {0.3, 2.0}) {
       PoissonOptions opt;
       opt.depth = depth;
       opt.extract_mesh = false;
-      const PointCloud pc = sample_sphere(depth == 8 ? 300000 : 120000, Vec3(r, 0, 0), r);
+      const PointCloud pc = sample_sphere(depth == 8 ? 250000 : 100000, Vec3(r, 0, 0), r);
       const auto res = reconstruct(pc, opt);
       std::vector<Vec3> g(pc.size());
       res.field->gradients(pc.positions, g);

@@ -8,10 +8,10 @@
 // Only the cells crossed by the surface are visited: starting from the cells that hold the seeds,
 // the search crosses every cell face whose corners straddle the iso-value (a connected surface
 // component crosses from cell to cell only through such faces).
-#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -150,7 +150,8 @@ TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> se
   for (std::uint64_t k : frontier) visited.insert(k);
   std::vector<std::uint64_t> cells;
   std::vector<std::array<double, 8>> values;
-  static constexpr int kFace[6][4] = {{0, 2, 4, 6}, {1, 3, 5, 7}, {0, 1, 4, 5}, {2, 3, 6, 7}, {0, 1, 2, 3}, {4, 5, 6, 7}};
+  static constexpr int kFace[6][4] = {{0, 2, 4, 6}, {1, 3, 5, 7}, {0, 1, 4, 5},
+                                      {2, 3, 6, 7}, {0, 1, 2, 3}, {4, 5, 6, 7}};
   static constexpr int kStep[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
   while (!frontier.empty()) {
     std::vector<std::array<double, 8>> fv(frontier.size());
@@ -224,7 +225,8 @@ TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> se
       mesh.faces[t][k] = static_cast<int>(std::lower_bound(uniq.begin(), uniq.end(), edges[t * 3 + k]) - uniq.begin());
   });
   std::vector<double> density(mesh.vertices.size());
-  tbb::parallel_for(std::size_t{0}, mesh.vertices.size(), [&](std::size_t i) { density[i] = field.density(mesh.vertices[i]); });
+  tbb::parallel_for(std::size_t{0}, mesh.vertices.size(),
+                    [&](std::size_t i) { density[i] = field.density(mesh.vertices[i]); });
   mesh.vertex_scalars.set("density", std::move(density));
   if (mesh.faces.empty()) log::warn("poisson: the iso-surface does not pass near the samples; empty mesh");
   return mesh;

@@ -117,8 +117,7 @@ void PoissonField::values(std::span<const Vec3> pts, std::span<double> out) cons
 }
 
 void PoissonField::gradients(std::span<const Vec3> pts, std::span<Vec3> out) const {
-  AUTOSCAN_CHECK(pts.size() == out.size(), "PoissonField::gradients: {} points but {} outputs", pts.size(),
-                 out.size());
+  AUTOSCAN_CHECK(pts.size() == out.size(), "PoissonField::gradients: {} points but {} outputs", pts.size(), out.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pts.size(), 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = gradient(pts[i]);
   });

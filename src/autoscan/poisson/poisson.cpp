@@ -27,10 +27,12 @@
 // Determinism. Every parallel loop writes disjoint outputs: scatters from samples go cell colour
 // by cell colour (cells of one parity share no corner), reductions sum fixed-size chunks in order.
 // Results do not depend on the number of threads.
-#include <Eigen/Eigenvalues>
+#include "autoscan/poisson/poisson.hpp"
+
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -42,7 +44,6 @@
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/poisson/detail.hpp"
-#include "autoscan/poisson/poisson.hpp"
 
 namespace autoscan::poisson {
 namespace {
@@ -56,9 +57,11 @@ using detail::KeyIndex;
 using detail::kNoKey;
 using detail::pack;
 
-/// |grad chi| * W / 2^D measured at the iso-surface of densely, cleanly sampled spheres (radius 0.3
-/// to 0.45 of the cube, 200k-800k samples, depths 6-9, alpha = 4): the mean over the samples is
-/// 0.52-0.56 of 2^D / W; see tests/poisson (ReferenceGradientIsCalibrated).
+/// reference_gradient() = kReferenceGradientConstant * 2^D / W (W: side of the bounding cube).
+/// |grad chi| * W / 2^D was measured at the samples of densely, cleanly sampled spheres (radius 0.3
+/// and 2, i.e. about 0.45 of the cube, 100k samples at depth 6 and 250k at depth 8, alpha = 4): its
+/// mean is this constant within 15 % (tests/poisson, ReferenceGradientIsCalibrated). chi jumps by
+/// about 1 across the surface over a kernel a few cells wide, hence a constant of order 1/2.
 constexpr double kReferenceGradientConstant = 0.54;
 /// The density kernel radius is the cell width of the finest depth whose occupied cells hold at
 /// least this many samples on average.
@@ -206,13 +209,13 @@ void prolong(const KeyIndex& cindex, const std::vector<T>& cval, const std::vect
 // ---- the solver --------------------------------------------------------------------------------
 
 struct Samples {
-  std::vector<Vec3> u;            ///< unit-cube positions
-  std::vector<Vec3> n;            ///< outward unit normals
-  std::vector<double> w;          ///< user weights
-  std::vector<double> area;       ///< a_p = 1 / density
-  std::vector<std::int8_t> depth; ///< finest splat depth s_p (the octree is refined to it)
-  std::vector<double> frac;       ///< share of the sample splatted at s_p (the rest at s_p - 1)
-  std::vector<std::int8_t> refine;  ///< depth the octree is refined to around the sample (>= s_p)
+  std::vector<Vec3> u;               ///< unit-cube positions
+  std::vector<Vec3> n;               ///< outward unit normals
+  std::vector<double> w;             ///< user weights
+  std::vector<double> area;          ///< a_p = 1 / density
+  std::vector<std::int8_t> depth;    ///< finest splat depth s_p (the octree is refined to it)
+  std::vector<double> frac;          ///< share of the sample splatted at s_p (the rest at s_p - 1)
+  std::vector<std::int8_t> refine;   ///< depth the octree is refined to around the sample (>= s_p)
   std::vector<std::uint64_t> code;   ///< Morton code at depth D
   std::vector<std::uint32_t> order;  ///< sample indices in Morton order
 };
@@ -220,15 +223,15 @@ struct Samples {
 struct Level {
   int depth = 0;
   int n = 1;
-  std::vector<std::uint64_t> keys;   ///< E_d, sorted
-  std::vector<std::int32_t> act;     ///< indices (into keys) of A_d, ascending
+  std::vector<std::uint64_t> keys;  ///< E_d, sorted
+  std::vector<std::int32_t> act;    ///< indices (into keys) of A_d, ascending
   KeyIndex index;
-  std::vector<double> b;             ///< right-hand side from V (on E, zero on the halo)
-  std::vector<Vec3> own;             ///< V of the samples splatted at this depth, as node coefficients
+  std::vector<double> b;  ///< right-hand side from V (on E, zero on the halo)
+  std::vector<Vec3> own;  ///< V of the samples splatted at this depth, as node coefficients
   // samples with s_p >= depth, in Morton order, grouped by cell
   std::vector<std::uint32_t> samples;
-  std::vector<std::uint32_t> cell_begin;  ///< cells + 1 entries
-  std::vector<std::int32_t> corners;      ///< 8 per cell, indices into keys
+  std::vector<std::uint32_t> cell_begin;            ///< cells + 1 entries
+  std::vector<std::int32_t> corners;                ///< 8 per cell, indices into keys
   std::array<std::vector<std::uint32_t>, 8> color;  ///< cells by parity of their coordinates
   std::size_t splat = 0;
 };
@@ -347,7 +350,9 @@ void Solver::estimate_density() {
   std::vector<double> logrho(N);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 1024), [&](const auto& rg) {
     for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
-      const double rho = neighbourhood(i, [](std::uint32_t) { return 1.0; }, nullptr) / norm;  // > 0 (itself)
+      const double rho = neighbourhood(
+                             i, [](std::uint32_t) { return 1.0; }, nullptr) /
+                         norm;  // > 0 (itself)
       s_.area[i] = 1.0 / rho;
       logrho[i] = std::log2(rho);
     }
@@ -357,7 +362,9 @@ void Solver::estimate_density() {
       // The splat depth follows the density averaged once more over the kernel, so that it changes
       // along smooth fronts rather than from sample to sample (a patchy octree makes bumps).
       double ws = 0.0;
-      const double lr = neighbourhood(i, [&](std::uint32_t q) { return logrho[q]; }, &ws) / ws;
+      const double lr = neighbourhood(
+                            i, [&](std::uint32_t q) { return logrho[q]; }, &ws) /
+                        ws;
       // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at floor(sd), so
       // that the kernel width varies smoothly with the density.
       const double sd = 0.5 * (lr - std::log2(spn));
@@ -412,8 +419,8 @@ void Solver::estimate_density() {
         const std::uint64_t ck = cell_keys[c];
         int idx[8];
         for (int q = 0; q < 8; ++q)
-          idx[q] = density_.index.find(
-              pack(key_x(ck) + (q & 1), key_y(ck) + ((q >> 1) & 1), key_z(ck) + ((q >> 2) & 1)));
+          idx[q] =
+              density_.index.find(pack(key_x(ck) + (q & 1), key_y(ck) + ((q >> 1) & 1), key_z(ck) + ((q >> 2) & 1)));
         for (std::uint32_t j = run_begin[c]; j < run_begin[c + 1]; ++j) {
           const std::uint32_t p = s_.order[j];
           double t[3];
@@ -512,7 +519,8 @@ void Solver::build_levels() {
       L.keys = dilate(active, -1, 1, L.n);
       L.act.resize(active.size());
       std::vector<std::int32_t>& act = L.act;
-      match_sorted(active.size(), [&](std::size_t i) { return active[i]; }, L.keys, act.data(), 1);
+      match_sorted(
+          active.size(), [&](std::size_t i) { return active[i]; }, L.keys, act.data(), 1);
     }
     L.index.build(L.keys);
     build_level_cells(L);
@@ -910,8 +918,9 @@ PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, Pr
     cov /= static_cast<double>(s.u.size());
     Eigen::SelfAdjointEigenSolver<Mat3> es(cov);
     const Vec3 ev = es.eigenvalues();
-    AUTOSCAN_REQUIRE(ev(0) > 1e-10 * ev(2), "poisson input: all points are coplanar (or collinear); a surface needs "
-                                            "points spread in three dimensions");
+    AUTOSCAN_REQUIRE(ev(0) > 1e-10 * ev(2),
+                     "poisson input: all points are coplanar (or collinear); a surface needs "
+                     "points spread in three dimensions");
   }
   const double width = opt.scale * extent;
   const Vec3 origin = box.center() - Vec3::Constant(0.5 * width);

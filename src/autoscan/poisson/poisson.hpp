@@ -30,21 +30,21 @@ namespace autoscan::poisson {
 
 /// Options of the reconstruction (PoissonRecon's names in brackets).
 struct PoissonOptions {
-  int depth = 8;                   ///< maximum octree depth D [--depth]; 2..12
-  double screening = 4.0;          ///< screening weight alpha [--pointWeight], scaled by 2^d at depth d
+  int depth = 8;           ///< maximum octree depth D [--depth]; 2..12
+  double screening = 4.0;  ///< screening weight alpha [--pointWeight], scaled by 2^d at depth d
   /// Density-adaptive splat depth: a sample goes to the (fractional) depth d where rho * h_d^2 equals
   /// this (rho: local samples per unit area, h_d: cell side), shared between the two nearest depths
   /// [--samplesPerNode].
   double samples_per_node = 1.5;
-  double scale = 1.1;              ///< bounding cube side = scale * largest side of the points' box [--scale]
-  int full_depth = 5;              ///< depths up to this one are full grids, solved to convergence [--fullDepth]
-  int fine_iterations = 12;        ///< conjugate-gradient iterations per sparse depth (cascadic) [--iters]
-  int coarse_max_iterations = 400; ///< CG iteration cap on the full-grid depths
-  double coarse_tolerance = 1e-7;  ///< relative residual reached on the full-grid depths
-  std::string weight_scalar;       ///< optional per-point weight column of the cloud ("" = all weights 1)
-  bool extract_mesh = true;        ///< extract the iso-surface (false: field only)
-  double trim = 0.0;               ///< drop mesh vertices whose density is below this quantile, in [0, 1) (0 = keep all)
-  std::size_t min_points = 10;     ///< fewer points than this is an InputError
+  double scale = 1.1;               ///< bounding cube side = scale * largest side of the points' box [--scale]
+  int full_depth = 5;               ///< depths up to this one are full grids, solved to convergence [--fullDepth]
+  int fine_iterations = 12;         ///< conjugate-gradient iterations per sparse depth (cascadic) [--iters]
+  int coarse_max_iterations = 400;  ///< CG iteration cap on the full-grid depths
+  double coarse_tolerance = 1e-7;   ///< relative residual reached on the full-grid depths
+  std::string weight_scalar;        ///< optional per-point weight column of the cloud ("" = all weights 1)
+  bool extract_mesh = true;         ///< extract the iso-surface (false: field only)
+  double trim = 0.0;            ///< drop mesh vertices whose density is below this quantile, in [0, 1) (0 = keep all)
+  std::size_t min_points = 10;  ///< fewer points than this is an InputError
 };
 
 /// Per-depth diagnostics.
@@ -60,14 +60,14 @@ struct LevelDiagnostics {
 
 struct PoissonDiagnostics {
   std::vector<LevelDiagnostics> levels;
-  std::size_t points = 0;       ///< samples used
-  int density_depth = 0;        ///< depth whose cell width is the density kernel radius
-  int finest_depth = 0;         ///< deepest depth that holds unknowns (<= options.depth)
-  double seconds_octree = 0.0;  ///< density estimate, splat depths, node sets
-  double seconds_splat = 0.0;   ///< normal field and its divergence (right-hand sides)
-  double seconds_system = 0.0;  ///< neighbour tables, coarse-to-fine prolongation, residual set-up
-  double seconds_solve = 0.0;   ///< conjugate gradients
-  double seconds_extract = 0.0; ///< iso-value, marching tetrahedra, density, trimming
+  std::size_t points = 0;        ///< samples used
+  int density_depth = 0;         ///< depth whose cell width is the density kernel radius
+  int finest_depth = 0;          ///< deepest depth that holds unknowns (<= options.depth)
+  double seconds_octree = 0.0;   ///< density estimate, splat depths, node sets
+  double seconds_splat = 0.0;    ///< normal field and its divergence (right-hand sides)
+  double seconds_system = 0.0;   ///< neighbour tables, coarse-to-fine prolongation, residual set-up
+  double seconds_solve = 0.0;    ///< conjugate gradients
+  double seconds_extract = 0.0;  ///< iso-value, marching tetrahedra, density, trimming
   double seconds_total = 0.0;
 };
 
@@ -127,8 +127,7 @@ struct PoissonResult {
 /// Screened Poisson reconstruction of oriented points (outward unit normals; normalised here).
 /// Throws InputError for: fewer than options.min_points points, missing, zero or non-finite normals,
 /// non-finite positions or weights, all points (nearly) coplanar or coincident, options out of range.
-PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& options = {},
-                          ProgressCallback progress = {});
+PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& options = {}, ProgressCallback progress = {});
 
 /// Surface-following marching tetrahedra at depth `field.finest_depth()` on the Freudenthal
 /// subdivision of the grid cells, seeded at the cells holding `seeds` (world points near the
