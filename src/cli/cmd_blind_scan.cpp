@@ -18,6 +18,7 @@
 #include "autoscan/scanner/blind_scan.hpp"
 #include "autoscan/scanner/virtual_scanner.hpp"
 #include "command.hpp"
+#include "scanner_args.hpp"
 
 namespace {
 
@@ -57,19 +58,10 @@ AUTOSCAN_CLI_COMMAND(blind_scan, 21, [](CLI::App& root, autoscan::cli::Globals& 
     AUTOSCAN_REQUIRE(std::filesystem::path(o->out).extension() == ".ply",
                      "{}: a scan is written as PLY; use a .ply name (--out)", o->out);
     o->blind.validate();
-    ScannerSpec spec;
-    if (!o->scanner.empty()) {
-      cli::require_input_file(o->scanner, "--scanner");
-      spec = load_scanner(o->scanner);
-    }
-    if (o->noise >= 0 || o->noise != o->noise) spec.noise.magnitude = o->noise;
-    spec.validate("--noise/--scanner");
+    const ScannerSpec spec = cli::scanner_from_args(o->scanner, o->noise);
     scanner::VirtualScannerOptions opt;
     if (!o->rig.empty()) {
-      cli::require_input_file(o->rig, "--rig");
-      const auto j = nlohmann::json::parse(read_text_file(o->rig), nullptr, false);
-      AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON (--rig)", o->rig);
-      opt.rig = rig_from_json(j, o->rig);
+      opt.rig = cli::rig_from_file(o->rig);
     }
 
     TriangleMesh mesh = io::read_mesh(o->mesh);

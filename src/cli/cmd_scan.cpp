@@ -17,6 +17,7 @@
 #include "autoscan/io/normalize.hpp"
 #include "autoscan/scanner/virtual_scanner.hpp"
 #include "command.hpp"
+#include "scanner_args.hpp"
 
 namespace {
 
@@ -52,19 +53,10 @@ AUTOSCAN_CLI_COMMAND(scan, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
     cli::require_output_parent(o->out, "--out");
     AUTOSCAN_REQUIRE(std::filesystem::path(o->out).extension() == ".ply",
                      "{}: a scan is written as PLY; use a .ply name (--out)", o->out);
-    ScannerSpec spec;
-    if (!o->scanner.empty()) {
-      cli::require_input_file(o->scanner, "--scanner");
-      spec = load_scanner(o->scanner);
-    }
-    if (o->noise >= 0 || o->noise != o->noise) spec.noise.magnitude = o->noise;
-    spec.validate("--noise/--scanner");
+    const ScannerSpec spec = cli::scanner_from_args(o->scanner, o->noise);
     scanner::VirtualScannerOptions opt;
     if (!o->rig.empty()) {
-      cli::require_input_file(o->rig, "--rig");
-      const auto j = nlohmann::json::parse(read_text_file(o->rig), nullptr, false);
-      AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON (--rig)", o->rig);
-      opt.rig = rig_from_json(j, o->rig);
+      opt.rig = cli::rig_from_file(o->rig);
     }
     const Pose pose = parse_pose(o->pose, "--pose");
 
