@@ -12,9 +12,11 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "autoscan/core/random.hpp"
 #include "autoscan/eval/metrics.hpp"
@@ -72,6 +74,70 @@ Run in_child(const std::string& tag, F&& body) {
 
 int main(int argc, char** argv) {
   const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
+  if (argc > 1 && std::string(argv[1]) == "--diagnose") {  // where the error is: distance percentiles
+    const std::string name = argc > 2 ? argv[2] : "bunny00";
+    const std::size_t n = argc > 3 ? std::stoul(argv[3]) : 100000;
+    const int depth = argc > 4 ? std::stoi(argv[4]) : 8;
+    TriangleMesh truth = io::read_mesh(std::string(AUTOSCAN_MODELS_DIR) + "/" + name + ".off");
+    normalize_to_benchmark_frame(truth);
+    Rng rng(7);
+    PointCloud pc = sample_surface(truth, n, rng);
+    pc.scalars.clear();
+    auto show = [&](const char* tag, const TriangleMesh& m, double s) {
+      const auto e = eval::evaluate_mesh(m, truth);
+      std::printf(
+          "%-28s %6.2f s V %8zu | acc mean %.7f med %.7f p90 %.7f p99 %.7f max %.5f | comp mean %.7f med %.7f "
+          "p90 %.7f p99 %.7f max %.5f | chamfer %.7f\n",
+          tag, s, m.vertices.size(), e.accuracy.mean, e.accuracy.median, e.accuracy.p90, e.accuracy.p99, e.accuracy.max,
+          e.completeness.mean, e.completeness.median, e.completeness.p90, e.completeness.p99, e.completeness.max,
+          0.5 * (e.accuracy.mean + e.completeness.mean));
+      std::fflush(stdout);
+    };
+    if (!std::getenv("NO_PEER")) {
+      const auto t0 = std::chrono::steady_clock::now();
+      open3d::geometry::PointCloud o3;
+      o3.points_ = pc.positions;
+      o3.normals_ = pc.normals;
+      auto [mesh, dens] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(o3, depth, 0, 1.1f, false, -1);
+      TriangleMesh m;
+      m.vertices = mesh->vertices_;
+      for (const auto& t : mesh->triangles_) m.faces.push_back({t[0], t[1], t[2]});
+      show("open3d", m, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      if (std::getenv("DUMP")) io::write_mesh(std::string(std::getenv("DUMP")) + "/open3d.ply", m);
+    }
+    struct Variant {
+      const char* tag;
+      int iters;
+      double screening, spn;
+      int refine = 2;
+    };
+    std::vector<Variant> variants = {Variant{"ours default", 12, 4.0, 1.5}, Variant{"ours iters 60", 60, 4.0, 1.5},
+                                     Variant{"ours screening 16", 12, 16.0, 1.5}, Variant{"ours spn 4", 12, 4.0, 4.0}};
+    if (argc > 5) {  // variants "screening:spn", e.g. 4:1.5 16:1
+      variants.clear();
+      for (int a = 5; a < argc; ++a) {
+        const std::string spec = argv[a];
+        const auto c = spec.find(':');
+        const auto c2 = spec.find(':', c + 1);  // optional third field: vertex refinement steps
+        variants.push_back({argv[a], 12, std::stod(spec.substr(0, c)), std::stod(spec.substr(c + 1, c2 - c - 1)),
+                            c2 == std::string::npos ? 2 : std::stoi(spec.substr(c2 + 1))});
+      }
+    }
+    for (const Variant& v : variants) {
+      poisson::PoissonOptions opt;
+      opt.depth = depth;
+      opt.fine_iterations = v.iters;
+      opt.screening = v.screening;
+      opt.samples_per_node = v.spn;
+      opt.vertex_refinement = v.refine;
+      const auto t0 = std::chrono::steady_clock::now();
+      const auto res = poisson::reconstruct(pc, opt);
+      show(v.tag, res.mesh, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      if (std::getenv("DUMP") && v.iters == 12 && v.screening == 4.0 && v.spn == 1.5)
+        io::write_mesh(std::string(std::getenv("DUMP")) + "/ours.ply", res.mesh);
+    }
+    return 0;
+  }
   if (argc > 1 && std::string(argv[1]) == "--sweep") {  // our options on bunny00, 100k points, depth 8
     TriangleMesh truth = io::read_mesh(std::string(AUTOSCAN_MODELS_DIR) + "/bunny00.off");
     normalize_to_benchmark_frame(truth);

@@ -137,6 +137,36 @@ TEST(Coverage, DenseSamplesCoverAndHalfCoversHalf) {
   EXPECT_EQ(coverage(PointCloud{}, sphere), 0.0);
 }
 
+TEST(Coverage, SplitByTheScannableReference) {
+  const TriangleMesh sphere = icosphere(0.5, 5);
+  Rng rng(78);
+  const PointCloud dense = sample_surface(sphere, 200000, rng);
+  PointCloud upper, lower_cap;
+  for (const auto& p : dense.positions) {
+    if (p.z() > 0) upper.positions.push_back(p);
+    if (p.z() < -0.25) lower_cap.positions.push_back(p);
+  }
+  // Scanned everything, only the upper half scannable: all of the scannable part is covered.
+  auto c = coverage_split(dense, upper, sphere, 0.005, 50000);
+  EXPECT_GT(c.coverage, 0.999);
+  EXPECT_NEAR(c.scannable_share, 0.5, 0.02);
+  EXPECT_GT(c.scannable_coverage, 0.999);
+  // Scanned the upper half, everything scannable: the split agrees with coverage().
+  c = coverage_split(upper, dense, sphere, 0.005, 50000);
+  EXPECT_DOUBLE_EQ(c.coverage, coverage(upper, sphere, 0.005, 50000));
+  EXPECT_GT(c.scannable_share, 0.999);
+  EXPECT_NEAR(c.scannable_coverage, c.coverage, 1e-3);
+  // Scanned the upper half, scannable only the lower cap (area share (1 - 0.5) / 2 = 0.25): none of
+  // the scannable part is covered.
+  c = coverage_split(upper, lower_cap, sphere, 0.005, 50000);
+  EXPECT_NEAR(c.scannable_share, 0.25, 0.02);
+  EXPECT_EQ(c.scannable_coverage, 0.0);
+  // Nothing scannable: the scannable coverage is vacuously complete.
+  PointCloud far_away;
+  far_away.positions.push_back(Vec3(10, 10, 10));
+  EXPECT_EQ(coverage_split(upper, far_away, sphere, 0.005, 5000).scannable_coverage, 1.0);
+}
+
 TEST(EvaluateCloud, PointsOnALargerSphere) {
   const TriangleMesh truth = icosphere(0.5, 6);
   Rng rng(5);

@@ -5,8 +5,12 @@
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/random.hpp"
+#include "autoscan/eval/metrics.hpp"
 #include "autoscan/shapes/primitives.hpp"
+#include "autoscan/shapes/sampling.hpp"
 #include "autoscan/simulation/bench.hpp"
+#include "autoscan/simulation/scannable.hpp"
 #include "autoscan/simulation/simulate.hpp"
 
 using namespace autoscan;
@@ -28,6 +32,9 @@ simulation::SimulateOptions small_options() {
   o.blind.views = 4;
   o.blind.elevations_deg = {20.0};
   o.eval.samples = 5000;
+  o.scannable_options.surface_views = 40;
+  o.scannable_options.sphere_views = 12;
+  o.scannable_options.resolution_divisor = 1;
   o.report = false;
   return o;
 }
@@ -55,6 +62,39 @@ nlohmann::json figures(const fs::path& dir) {
 
 }  // namespace
 
+TEST(Scannable, ConvexObjectIsScannableAndARigLimitHidesTheTop) {
+  const TriangleMesh sphere = icosphere(0.4, 4);
+  ScannerSpec spec;
+  spec.width = 320;
+  spec.height = 240;
+  simulation::ScannableOptions so;
+  so.surface_views = 60;
+  so.sphere_views = 12;
+  so.resolution_divisor = 1;
+  const double voxel = 0.25 * 0.005 * sphere.bounds().diagonal();
+  const auto all = simulation::scannable_reference(sphere, spec, Rig{}, voxel, so);
+  EXPECT_EQ(all.views_skipped, 0);
+  PointCloud dense;
+  Rng rng(3);
+  dense = sample_surface(sphere, 100000, rng);
+  const auto c = eval::coverage_split(dense, all.cloud, sphere, 0.005, 20000);
+  EXPECT_GT(c.scannable_share, 0.99);
+  // A turntable arm that stays below the object's centre cannot look down on the top cap.
+  Rig low;
+  low.kind = Rig::Kind::turntable_arm;
+  low.min_height = -2.0;
+  low.max_height = -0.2;
+  const auto part = simulation::scannable_reference(sphere, spec, low, voxel, so);
+  EXPECT_GT(part.views_skipped, 0);
+  double top = -1;
+  for (const auto& p : part.cloud.positions) top = std::max(top, p.z());
+  EXPECT_LT(top, 0.39);
+  EXPECT_LT(eval::coverage_split(dense, part.cloud, sphere, 0.005, 20000).scannable_share, 0.95);
+  // Deterministic: the same reference twice.
+  EXPECT_EQ(simulation::scannable_reference(sphere, spec, low, voxel, so).cloud.positions, part.cloud.positions);
+  EXPECT_THROW(simulation::scannable_reference(sphere, spec, Rig{}, 0.0, so), InputError);
+}
+
 TEST(Simulation, RunsTheLoopAndRecordsTruthFigures) {
   const auto dir = fresh("loop");
   const auto r = simulation::simulate(capsule_like(), dir, small_options());
@@ -64,6 +104,11 @@ TEST(Simulation, RunsTheLoopAndRecordsTruthFigures) {
   EXPECT_FALSE(r.stop_reason.empty());
   ASSERT_TRUE(r.truth.is_object());
   EXPECT_GT(r.truth.value("coverage", 0.0), 0.5);
+  // Coverage of what the scanner can capture at all (scannable.hpp): the capsule is convex, so almost
+  // all of it is scannable, and the scannable coverage is at least the plain one's share of it.
+  EXPECT_GT(r.truth.value("scannable_share", 0.0), 0.95);
+  EXPECT_GE(r.truth.value("coverage_scannable", 0.0), r.truth.value("coverage", 1.0) - 0.01);
+  EXPECT_TRUE(fs::exists(dir / "scannable.ply"));
   EXPECT_TRUE(fs::exists(dir / "truth.ply"));
   EXPECT_TRUE(fs::exists(dir / "iterations" / "iter_000" / "mesh.ply"));
   // Every iteration carries its ground-truth figures.

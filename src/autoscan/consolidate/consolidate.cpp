@@ -52,12 +52,15 @@ ConsolidateResult consolidate(const PointCloud& raw, const ConsolidateOptions& o
     r.timings.push_back({name, sw.seconds()});
     log::debug("consolidate: {} took {:.3f} s, {} points", name, r.timings.back().seconds, r.cloud.size());
   };
-  if (o.outliers.enabled)
+  // Thinning first: the accumulated scans of a session reach millions of points, and the k-NN
+  // filters cost O(n log n) on whatever they get. An isolated outlier stays an isolated voxel
+  // representative, so the statistical filter still finds it on the thinned set.
+  if (o.thinning.voxel_size > 0.0 || o.thinning.max_points > 0)
+    timed("thinning", [&] { r.thinning = voxel_thin(r.cloud, o.thinning); });
+  if (o.outliers.enabled && r.cloud.size() > static_cast<std::size_t>(o.outliers.k))
     timed("outliers", [&] { r.outliers = remove_statistical_outliers(r.cloud, o.outliers, progress); });
   if (o.radius_filter.radius > 0.0)
     timed("radius_filter", [&] { r.radius_removed = remove_sparse_points(r.cloud, o.radius_filter, progress); });
-  if (o.thinning.voxel_size > 0.0 || o.thinning.max_points > 0)
-    timed("thinning", [&] { r.thinning = voxel_thin(r.cloud, o.thinning); });
   if (run_wlop) timed("wlop", [&] { r.wlop = apply_wlop(r.cloud, o.wlop, progress); });
   if (o.normals.enabled) timed("normals", [&] { r.normals = estimate_normals(r.cloud, o.normals, progress); });
   r.points_out = r.cloud.size();

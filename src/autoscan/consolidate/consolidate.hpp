@@ -1,8 +1,8 @@
 #pragma once
 // Point consolidation (paper §4.1): raw scans → a clean, oriented point set P = {(p_i, n_i)} for the
 // screened Poisson stage. Steps, in pipeline order, each also callable alone:
-//   1. statistical outlier removal on the mean k-NN distance, optional radius (sparse-point) filter;
-//   2. voxel-grid thinning, to bound the point count as scans accumulate;
+//   1. voxel-grid thinning, to bound the point count as scans accumulate (off unless configured);
+//   2. statistical outlier removal on the mean k-NN distance, optional radius (sparse-point) filter;
 //   3. WLOP denoising and regularisation [Huang et al. 2009] (CGAL's implementation);
 //   4. PCA normals over k neighbours, oriented toward the scanner position each point was seen from
 //      (scalars sensor_x/y/z) — exact — or, without sensor positions, by MST propagation
@@ -133,7 +133,7 @@ struct ConsolidateResult {
   double total_seconds = 0.0;
 };
 
-/// The whole §4.1 preprocessing: outliers → radius filter → thinning → WLOP → normals.
+/// The whole §4.1 preprocessing: thinning → outliers → radius filter → WLOP → normals.
 /// Throws InputError for an empty cloud, non-finite values, inconsistent attribute sizes, all points
 /// identical, k not smaller than the point count, or invalid options; Cancelled if `progress` says stop.
 ConsolidateResult consolidate(const PointCloud& raw, const ConsolidateOptions& options = {},

@@ -91,6 +91,18 @@ CloudEvalResult evaluate_cloud(const PointCloud& cloud, const TriangleMesh& trut
 double coverage(const PointCloud& scanned, const TriangleMesh& truth, double tau = 0.005, std::size_t samples = 200000,
                 std::uint64_t seed = 1);
 
+/// Coverage split by what the scanner can reach at all. `reference` is a cloud of everything a scanner
+/// can capture (e.g. noise-free scans from a dense set of views, simulation/scannable.hpp): a truth
+/// sample is *scannable* when it lies within tau of the reference. Surfaces no view reaches (deep
+/// concavities, the scanner's triangulation shadows) are thereby excepted from `scannable_coverage`.
+struct CoverageSplit {
+  double coverage = 0;            ///< share of all truth samples within tau of `scanned`
+  double scannable_share = 0;     ///< share of truth samples within tau of `reference`
+  double scannable_coverage = 0;  ///< share of the scannable samples within tau of `scanned` (1 if none)
+};
+CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& reference, const TriangleMesh& truth,
+                             double tau = 0.005, std::size_t samples = 200000, std::uint64_t seed = 1);
+
 /// Writes the histogram as CSV: `bin_lo,bin_hi,share,count` then an `overflow` row. Atomic.
 void write_histogram_csv(const std::filesystem::path& path, const ErrorHistogram& h);
 /// Writes a bar chart (SVG) of one or more histograms with the same edges, side by side per bin

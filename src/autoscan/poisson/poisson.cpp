@@ -868,6 +868,8 @@ PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, Pr
                    "poisson: scale {} out of range [1, 16]", opt.scale);
   AUTOSCAN_REQUIRE(opt.fine_iterations >= 1 && opt.fine_iterations <= 10000,
                    "poisson: fine_iterations {} out of range [1, 10000]", opt.fine_iterations);
+  AUTOSCAN_REQUIRE(opt.vertex_refinement >= 0 && opt.vertex_refinement <= 20,
+                   "poisson: vertex_refinement {} out of range [0, 20]", opt.vertex_refinement);
   AUTOSCAN_REQUIRE(opt.coarse_max_iterations >= 1, "poisson: coarse_max_iterations must be >= 1");
   AUTOSCAN_REQUIRE(std::isfinite(opt.coarse_tolerance) && opt.coarse_tolerance > 0.0,
                    "poisson: coarse_tolerance must be > 0");
@@ -935,7 +937,7 @@ PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, Pr
     Stopwatch sw;
     std::vector<Vec3> seeds(s.u.size());
     for (std::size_t i = 0; i < s.u.size(); ++i) seeds[i] = origin + width * s.u[i];
-    res.mesh = extract_surface(*res.field, seeds);
+    res.mesh = extract_surface(*res.field, seeds, opt.vertex_refinement);
     if (opt.trim > 0.0) trim_by_density(res.mesh, opt.trim);
     res.diagnostics.seconds_extract = sw.seconds();
   }

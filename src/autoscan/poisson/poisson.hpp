@@ -43,6 +43,9 @@ struct PoissonOptions {
   double coarse_tolerance = 1e-7;   ///< relative residual reached on the full-grid depths
   std::string weight_scalar;        ///< optional per-point weight column of the cloud ("" = all weights 1)
   bool extract_mesh = true;         ///< extract the iso-surface (false: field only)
+  /// Newton steps that move each extracted vertex onto chi = iso (0: plain marching tetrahedra).
+  /// Halves the distance to the true surface on real meshes (docs/benchmarks.md, Poisson section).
+  int vertex_refinement = 2;
   double trim = 0.0;            ///< drop mesh vertices whose density is below this quantile, in [0, 1) (0 = keep all)
   std::size_t min_points = 10;  ///< fewer points than this is an InputError
 };
@@ -132,8 +135,10 @@ PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& options
 /// Surface-following marching tetrahedra at depth `field.finest_depth()` on the Freudenthal
 /// subdivision of the grid cells, seeded at the cells holding `seeds` (world points near the
 /// surface, e.g. the samples): a closed, manifold, crack-free mesh of every surface component that
-/// passes near a seed. Adds the vertex scalar "density".
-TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> seeds);
+/// passes near a seed. Each vertex is then moved onto chi = iso by `refine_steps` Newton steps along
+/// the exact gradient (0: linear interpolation along the tetrahedron edge only). Adds the vertex
+/// scalar "density".
+TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> seeds, int refine_steps = 2);
 
 /// Removes the `quantile` share of the vertices with the lowest "density" (ties by index), the faces
 /// that use them and the vertices left unused. quantile in [0, 1).

@@ -13,9 +13,19 @@
 namespace autoscan::session {
 
 struct SessionOptions {
+  /// Sessions accumulate millions of raw points; each reconstruction consolidates a voxel-thinned
+  /// subset of at most 100k points (then WLOP keeps 20 % of them when the data is noisy).
+  ///
+  /// WLOP runs 10 iterations instead of CGAL's 35: on the accumulated scans of bunny00 (noise 0.5,
+  /// 2.2 M points thinned to 100k) both give the same accuracy against the truth (mean 0.00287 vs
+  /// 0.00286, p90 0.0071 both) and 10 takes a third of the time.
+  SessionOptions() {
+    consolidate.thinning.max_points = 100000;
+    consolidate.wlop.iterations = 10;
+  }
   std::string planner = "poisson";                           ///< planners::make_planner name
   nlohmann::json planner_params = nlohmann::json::object();  ///< planner-specific settings
-  consolidate::ConsolidateOptions consolidate;               ///< §4.1 outliers, WLOP, normals
+  consolidate::ConsolidateOptions consolidate;               ///< §4.1 thinning, outliers, WLOP, normals
   poisson::PoissonOptions poisson;                           ///< §4.1 screened Poisson (depth, screening...)
   confidence::ConfidenceOptions confidence;                  ///< §4.2, Eq. 1-3 (K = 100)
   nbv::NbvOptions nbv;                                       ///< §5.1-5.2, Eq. 4-5 (100³ grid, σ = 25°)

@@ -13,7 +13,7 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   AUTOSCAN_REQUIRE(!raw.empty(), "reconstruction: the model has no points");
   Reconstruction r;
   Stopwatch clock;
-  // §4.1: outliers, thinning, WLOP, normals oriented toward the sensors.
+  // §4.1: thinning, outliers, WLOP, normals oriented toward the sensors.
   consolidate::ConsolidateResult cons = consolidate::consolidate(raw, options.consolidate, progress);
   r.seconds["consolidate"] = clock.seconds();
   r.consolidated = std::move(cons.cloud);
@@ -23,6 +23,7 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
                                   {"thinning_removed", cons.thinning.removed},
                                   {"wlop", cons.wlop.applied},
                                   {"normals", consolidate::to_string(cons.normals.orientation)}};
+  for (const auto& t : cons.timings) r.diagnostics["consolidate"]["seconds"][t.step] = t.seconds;
 
   // §4.1: screened Poisson, the evaluable field and its iso-surface.
   clock.reset();

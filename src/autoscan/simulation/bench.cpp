@@ -32,9 +32,10 @@ void BenchGrid::validate() const {
 }
 
 json to_json(const BenchGrid& g) {
-  return {{"models", g.models}, {"planners", g.planners}, {"views", g.views}, {"noise", g.noise},
-          {"seeds", g.seeds},   {"models_dir", g.models_dir.string()}, {"depth", g.depth},
-          {"max_iterations", g.max_iterations}};
+  return {{"models", g.models}, {"planners", g.planners},
+          {"views", g.views},   {"noise", g.noise},
+          {"seeds", g.seeds},   {"models_dir", g.models_dir.string()},
+          {"depth", g.depth},   {"max_iterations", g.max_iterations}};
 }
 
 BenchGrid bench_grid_from_json(const json& j, const std::string& what) {
@@ -107,7 +108,8 @@ void init_bench(const fs::path& dir, const BenchGrid& g) {
   const fs::path p = dir / "grid.json";
   if (fs::exists(p)) {
     const auto old = load_grid(dir);
-    AUTOSCAN_REQUIRE(to_json(old) == to_json(g), "{}: holds a different benchmark grid; use another --out", dir.string());
+    AUTOSCAN_REQUIRE(to_json(old) == to_json(g), "{}: holds a different benchmark grid; use another --out",
+                     dir.string());
     return;
   }
   write_text_atomic(p, to_json(g).dump(2));
@@ -131,14 +133,20 @@ json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
     o.session.seed = job.seed;
     o.session.max_views = *std::max_element(g.views.begin(), g.views.end());
     o.session.max_iterations = g.max_iterations;
+    // Every planner gets the whole view budget (the comparisons are at equal numbers of views, as
+    // in the paper's Figures 12-14): the confidence stop rule is off here; `simulate` keeps it.
+    o.session.stop_threshold = 0.0;
     o.session.poisson.depth = g.depth;
     o.scanner.noise.magnitude = job.noise;
     o.checkpoints = g.views;
+    // The scannable reference depends only on the model (noise-free, same scanner and rig): one per
+    // model, shared by all its runs.
+    o.scannable_cache = dir / "scannable" / (fs::path(job.model).stem().string() + ".ply");
     o.report = false;
     r = simulate(load_model(g, job.model), run_dir, o, progress);
   }
-  json out = {{"job", job.index},     {"model", job.model}, {"planner", job.planner}, {"noise", job.noise},
-              {"seed", job.seed},     {"result", r.to_json()}};
+  json out = {{"job", job.index},   {"model", job.model}, {"planner", job.planner},
+              {"noise", job.noise}, {"seed", job.seed},   {"result", r.to_json()}};
   write_text_atomic(result_path(dir, job), out.dump(1));
   return out;
 }
@@ -194,7 +202,8 @@ namespace {
 
 // A line chart in SVG: x = view budgets (or noise), one polyline per series.
 std::string line_chart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                       const std::vector<double>& xs, const std::vector<std::pair<std::string, std::vector<double>>>& series) {
+                       const std::vector<double>& xs,
+                       const std::vector<std::pair<std::string, std::vector<double>>>& series) {
   const double W = 520, H = 320, L = 60, R = 130, T = 30, B = 45;
   double lo = 1e300, hi = -1e300;
   for (const auto& [n, v] : series)
@@ -204,20 +213,25 @@ std::string line_chart(const std::string& title, const std::string& xlabel, cons
   const double xlo = xs.front(), xhi = xs.size() > 1 ? xs.back() : xs.front() + 1;
   auto px = [&](double x) { return L + (W - L - R) * (x - xlo) / (xhi - xlo); };
   auto py = [&](double y) { return T + (H - T - B) * (1 - (y - lo) / (hi - lo)); };
-  static const char* colors[] = {"#b91c1c", "#2563eb", "#16a34a", "#ca8a04", "#7c3aed", "#0891b2", "#db2777", "#475569"};
+  static const char* colors[] = {"#b91c1c", "#2563eb", "#16a34a", "#ca8a04",
+                                 "#7c3aed", "#0891b2", "#db2777", "#475569"};
   std::ostringstream s;
-  s << fmt::format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\">", W, H)
+  s << fmt::format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\">",
+                   W, H)
     << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>"
     << fmt::format("<text x=\"{}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>", (W - R + L) / 2, title)
     << fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\"/>", L, H - B, W - R, H - B)
     << fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\"/>", L, T, L, H - B)
-    << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"12\">{}</text>", (W - R + L) / 2, H - 8, xlabel)
-    << fmt::format("<text x=\"14\" y=\"{}\" font-size=\"12\" transform=\"rotate(-90 14 {})\" text-anchor=\"middle\">{}</text>",
-                   (H - B + T) / 2, (H - B + T) / 2, ylabel);
+    << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"12\">{}</text>", (W - R + L) / 2, H - 8,
+                   xlabel)
+    << fmt::format(
+           "<text x=\"14\" y=\"{}\" font-size=\"12\" transform=\"rotate(-90 14 {})\" text-anchor=\"middle\">{}</text>",
+           (H - B + T) / 2, (H - B + T) / 2, ylabel);
   for (double y : {lo, (lo + hi) / 2, hi})
     s << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"10\">{:.4g}</text>", L - 4, py(y) + 4, y);
   for (double x : xs)
-    s << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{:g}</text>", px(x), H - B + 14, x);
+    s << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{:g}</text>", px(x), H - B + 14,
+                     x);
   for (std::size_t k = 0; k < series.size(); ++k) {
     const char* c = colors[k % 8];
     std::string pts;
@@ -250,8 +264,8 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
   const auto jobs = expand_grid(g);
   json rows = json::array();
   std::ostringstream csv;
-  csv << "model,planner,noise,seed,views,views_taken,reached,coverage,fscore,precision,recall,accuracy_mean,"
-         "completeness_mean,mean_f\n";
+  csv << "model,planner,noise,seed,views,views_taken,reached,coverage,coverage_scannable,fscore,precision,recall,"
+         "accuracy_mean,completeness_mean,mean_f\n";
   // (model, noise, planner, views) -> values over seeds
   std::map<std::tuple<std::string, double, std::string, int>, std::map<std::string, std::vector<double>>> agg;
   std::map<std::pair<std::string, std::string>, std::vector<std::pair<std::string, eval::ErrorHistogram>>> hist;
@@ -264,12 +278,13 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
     for (const auto& c : res.value("checkpoints", json::array())) {
       auto num = [&](const char* k) { return c.contains(k) && c[k].is_number() ? c[k].get<double>() : std::nan(""); };
       const int v = c.value("views", 0);
-      csv << fmt::format("{},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6f}\n", j.model, j.planner,
-                         j.noise, j.seed, v, c.value("views_taken", 0), c.value("reached", false) ? 1 : 0,
-                         num("coverage"), num("fscore"), num("precision"), num("recall"), num("accuracy_mean"),
-                         num("completeness_mean"), num("mean_f"));
+      csv << fmt::format("{},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6f}\n", j.model,
+                         j.planner, j.noise, j.seed, v, c.value("views_taken", 0), c.value("reached", false) ? 1 : 0,
+                         num("coverage"), num("coverage_scannable"), num("fscore"), num("precision"), num("recall"),
+                         num("accuracy_mean"), num("completeness_mean"), num("mean_f"));
       auto& a = agg[{j.model, j.noise, j.planner, v}];
-      for (const char* k : {"coverage", "fscore", "accuracy_mean", "completeness_mean"}) a[k].push_back(num(k));
+      for (const char* k : {"coverage", "coverage_scannable", "fscore", "accuracy_mean", "completeness_mean"})
+        a[k].push_back(num(k));
       json row = c;
       row.erase("histogram");
       row["model"] = j.model;
@@ -298,11 +313,15 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
   std::ostringstream md;
   md << "# Benchmark results\n\nGenerated by `autoscan bench --collect`. " << have << " of " << jobs.size()
      << " runs finished. Grid: models " << fmt::format("{}", fmt::join(g.models, ", ")) << "; planners "
-     << fmt::format("{}", fmt::join(g.planners, ", ")) << "; view budgets " << fmt::format("{}", fmt::join(g.views, ", "))
-     << "; noise " << fmt::format("{}", fmt::join(g.noise, ", ")) << "; seeds " << g.seeds.size() << "; Poisson depth "
-     << g.depth << ".\nEach cell: F-score at τ = 0.005 of the diagonal / coverage of the truth by the scanned points "
-     << "(mean over seeds). Budgets a run did not reach (its planner stopped earlier) use its final model.\n\n";
-  const fs::path plot_rel = markdown_out.empty() ? fs::path("plots") : fs::relative(dir / "plots", markdown_out.parent_path());
+     << fmt::format("{}", fmt::join(g.planners, ", ")) << "; view budgets "
+     << fmt::format("{}", fmt::join(g.views, ", ")) << "; noise " << fmt::format("{}", fmt::join(g.noise, ", "))
+     << "; seeds " << g.seeds.size() << "; Poisson depth " << g.depth
+     << ".\nEach cell: F-score of the Poisson mesh at τ = 0.005 of the diagonal / coverage of the truth by "
+     << "the scanned points / coverage of the scannable truth (the part a dense set of noise-free views captures, "
+     << "simulation/scannable.hpp), means over seeds. Every run goes to the largest view budget (the confidence stop "
+     << "rule is off in the benchmark); a budget a run did not reach (views refused) uses its final model.\n\n";
+  const fs::path plot_rel =
+      markdown_out.empty() ? fs::path("plots") : fs::relative(dir / "plots", markdown_out.parent_path());
   std::vector<double> xs(g.views.begin(), g.views.end());
   for (const auto& m : g.models) {
     const std::string ms = fs::path(m).stem().string();
@@ -320,9 +339,10 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
           auto it = agg.find({m, n, p, v});
           const double f = it == agg.end() ? std::nan("") : mean_of(it->second["fscore"]);
           const double c = it == agg.end() ? std::nan("") : mean_of(it->second["coverage"]);
+          const double cs = it == agg.end() ? std::nan("") : mean_of(it->second["coverage_scannable"]);
           fv.push_back(f);
           cv.push_back(c);
-          md << (std::isfinite(f) ? fmt::format(" {:.3f} / {:.3f} |", f, c) : std::string(" – |"));
+          md << (std::isfinite(f) ? fmt::format(" {:.3f} / {:.3f} / {:.3f} |", f, c, cs) : std::string(" – |"));
         }
         fs_series.emplace_back(p, fv);
         cov_series.emplace_back(p, cv);
@@ -337,6 +357,42 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
                                    "coverage", xs, cov_series));
       md << "![F-score](" << (plot_rel / (base + "_fscore.svg")).string() << ") ![coverage]("
          << (plot_rel / (base + "_coverage.svg")).string() << ")\n";
+      // Figure 8: global confidence and mean error of each iteration's model, per planner (first seed).
+      {
+        std::vector<std::pair<std::string, std::vector<double>>> conf, err;
+        std::size_t iters = 0;
+        for (const auto& p : g.planners) {
+          std::vector<double> cf, er;
+          for (const auto& j : jobs) {
+            if (j.model != m || j.noise != n || j.planner != p || j.seed != g.seeds.front()) continue;
+            const fs::path sp = dir / "runs" / j.name / "session.json";
+            std::error_code ec;
+            if (!finished(dir, j) || !fs::exists(sp, ec)) continue;
+            const json sj = json::parse(read_text_file(sp), nullptr, false);
+            if (sj.is_discarded()) continue;
+            for (const auto& it : sj.value("iterations", json::array())) {
+              cf.push_back(it.value("mean_f", std::nan("")));
+              const json t = it.value("truth", json());
+              er.push_back(t.is_object() ? t.value("accuracy_mean", std::nan("")) : std::nan(""));
+            }
+          }
+          iters = std::max(iters, cf.size());
+          conf.emplace_back(p, cf);
+          err.emplace_back(p, er);
+        }
+        if (iters > 0) {
+          std::vector<double> ix(iters);
+          for (std::size_t i = 0; i < iters; ++i) ix[i] = static_cast<double>(i);
+          write_text_atomic(dir / "plots" / (base + "_confidence.svg"),
+                            line_chart(ms + " (noise " + fmt::format("{}", n) + "): mean confidence per iteration",
+                                       "iteration", "mean f", ix, conf));
+          write_text_atomic(dir / "plots" / (base + "_error.svg"),
+                            line_chart(ms + " (noise " + fmt::format("{}", n) + "): mean error per iteration",
+                                       "iteration", "mean distance to truth", ix, err));
+          md << "![confidence per iteration](" << (plot_rel / (base + "_confidence.svg")).string()
+             << ") ![error per iteration](" << (plot_rel / (base + "_error.svg")).string() << ")\n";
+        }
+      }
       auto h = hist.find({ms, fmt::format("{}", n)});
       if (h != hist.end() && !h->second.empty()) {
         try {
@@ -369,7 +425,8 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
   }
   write_text_atomic(dir / "results.md", md.str());
   if (!markdown_out.empty()) write_text_atomic(markdown_out, md.str());
-  return {{"runs", jobs.size()}, {"finished", have}, {"rows", rows.size()}, {"markdown", (dir / "results.md").string()}};
+  return {
+      {"runs", jobs.size()}, {"finished", have}, {"rows", rows.size()}, {"markdown", (dir / "results.md").string()}};
 }
 
 }  // namespace autoscan::simulation

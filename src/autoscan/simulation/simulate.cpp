@@ -1,6 +1,7 @@
 #include "autoscan/simulation/simulate.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -25,6 +26,11 @@ void SimulateOptions::validate() const {
   rig.validate("rig");
   blind.validate();
   AUTOSCAN_REQUIRE(eval.tau > 0 && eval.samples > 0, "evaluation: tau and samples must be positive");
+  AUTOSCAN_REQUIRE(scannable_options.surface_views >= 0 && scannable_options.sphere_views >= 0 &&
+                       scannable_options.surface_views + scannable_options.sphere_views > 0,
+                   "scannable_options: need at least one view");
+  AUTOSCAN_REQUIRE(scannable_options.resolution_divisor >= 1 && scannable_options.resolution_divisor <= 16,
+                   "scannable_options: resolution_divisor must be in [1, 16]");
   for (int c : checkpoints) AUTOSCAN_REQUIRE(c > 0, "checkpoints: view budgets must be positive, got {}", c);
 }
 
@@ -32,25 +38,44 @@ json to_json(const SimulateOptions& o) {
   return {{"session", session::to_json(o.session)},
           {"scanner", autoscan::to_json(o.scanner)},
           {"rig", autoscan::to_json(o.rig)},
-          {"blind", {{"views", o.blind.views}, {"elevations_deg", o.blind.elevations_deg},
-                     {"distance", o.blind.distance}, {"azimuth_offset_deg", o.blind.azimuth_offset_deg}}},
+          {"blind",
+           {{"views", o.blind.views},
+            {"elevations_deg", o.blind.elevations_deg},
+            {"distance", o.blind.distance},
+            {"azimuth_offset_deg", o.blind.azimuth_offset_deg}}},
           {"normalize", o.normalize},
           {"evaluate", o.evaluate},
-          {"eval", {{"tau", o.eval.tau}, {"samples", o.eval.samples}, {"seed", o.eval.seed},
-                    {"histogram_bins", o.eval.histogram_bins}, {"histogram_max", o.eval.histogram_max}}},
+          {"eval",
+           {{"tau", o.eval.tau},
+            {"samples", o.eval.samples},
+            {"seed", o.eval.seed},
+            {"histogram_bins", o.eval.histogram_bins},
+            {"histogram_max", o.eval.histogram_max}}},
           {"checkpoints", o.checkpoints},
+          {"scannable", o.scannable},
+          {"scannable_options",
+           {{"surface_views", o.scannable_options.surface_views},
+            {"sphere_views", o.scannable_options.sphere_views},
+            {"resolution_divisor", o.scannable_options.resolution_divisor},
+            {"seed", o.scannable_options.seed}}},
+          {"scannable_cache", o.scannable_cache.string()},
           {"report", o.report}};
 }
 
 SimulateOptions simulate_options_from_json(const json& j, SimulateOptions o, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: must be a JSON object", what);
-  static const std::set<std::string> known = {"session", "scanner", "rig",        "blind",      "normalize",
-                                              "evaluate", "eval",   "checkpoints", "report"};
+  static const std::set<std::string> known = {
+      "session",         "scanner", "rig",         "blind",     "normalize",
+      "evaluate",        "eval",    "checkpoints", "scannable", "scannable_options",
+      "scannable_cache", "report"};
   for (const auto& [k, v] : j.items())
-    AUTOSCAN_REQUIRE(known.count(k), "{}: unknown field '{}' (known: session, scanner, rig, blind, normalize, "
-                     "evaluate, eval, checkpoints, report)", what, k);
+    AUTOSCAN_REQUIRE(known.count(k),
+                     "{}: unknown field '{}' (known: session, scanner, rig, blind, normalize, "
+                     "evaluate, eval, checkpoints, scannable, scannable_options, scannable_cache, report)",
+                     what, k);
   try {
-    if (j.contains("session")) o.session = session::session_options_from_json(j["session"], o.session, what + ".session");
+    if (j.contains("session"))
+      o.session = session::session_options_from_json(j["session"], o.session, what + ".session");
     if (j.contains("scanner")) {
       json merged = autoscan::to_json(o.scanner);
       merged.merge_patch(j["scanner"]);
@@ -82,6 +107,16 @@ SimulateOptions simulate_options_from_json(const json& j, SimulateOptions o, con
       o.eval.histogram_max = e.value("histogram_max", o.eval.histogram_max);
     }
     if (j.contains("checkpoints")) o.checkpoints = j["checkpoints"].get<std::vector<int>>();
+    o.scannable = j.value("scannable", o.scannable);
+    if (j.contains("scannable_options")) {
+      const auto& e = j["scannable_options"];
+      AUTOSCAN_REQUIRE(e.is_object(), "{}.scannable_options: must be an object", what);
+      o.scannable_options.surface_views = e.value("surface_views", o.scannable_options.surface_views);
+      o.scannable_options.sphere_views = e.value("sphere_views", o.scannable_options.sphere_views);
+      o.scannable_options.resolution_divisor = e.value("resolution_divisor", o.scannable_options.resolution_divisor);
+      o.scannable_options.seed = e.value("seed", o.scannable_options.seed);
+    }
+    o.scannable_cache = j.value("scannable_cache", o.scannable_cache.string());
   } catch (const json::exception& e) {
     throw InputError(fmt::format("{}: {}", what, e.what()));
   }
@@ -90,14 +125,13 @@ SimulateOptions simulate_options_from_json(const json& j, SimulateOptions o, con
 }
 
 json SimulateResult::to_json() const {
-  return {{"directory", directory.string()}, {"iterations", iterations}, {"scans", scans},
-          {"views", views},                   {"skipped_views", skipped_views}, {"stop_reason", stop_reason},
-          {"mean_f", mean_f},                 {"truth", truth},                {"checkpoints", checkpoints},
-          {"seconds", seconds}};
+  return {{"directory", directory.string()}, {"iterations", iterations},   {"scans", scans},   {"views", views},
+          {"skipped_views", skipped_views},  {"stop_reason", stop_reason}, {"mean_f", mean_f}, {"truth", truth},
+          {"checkpoints", checkpoints},      {"seconds", seconds}};
 }
 
 json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const TriangleMesh& truth,
-                   const eval::EvalOptions& options) {
+                   const eval::EvalOptions& options, const PointCloud* reference) {
   json t = json::object();
   if (!recon.empty()) {
     const auto r = eval::evaluate_mesh(recon, truth, options);
@@ -121,7 +155,14 @@ json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const Trian
     h["values"] = values;
     t["histogram"] = h;
   }
-  t["coverage"] = eval::coverage(raw, truth, options.tau, options.samples, options.seed);
+  if (reference) {
+    const auto c = eval::coverage_split(raw, *reference, truth, options.tau, options.samples, options.seed);
+    t["coverage"] = c.coverage;
+    t["coverage_scannable"] = c.scannable_coverage;
+    t["scannable_share"] = c.scannable_share;
+  } else {
+    t["coverage"] = eval::coverage(raw, truth, options.tau, options.samples, options.seed);
+  }
   t["tau"] = options.tau;
   return t;
 }
@@ -140,6 +181,7 @@ class Loop {
     scanner::VirtualScannerOptions so;
     so.rig = opts_.rig;
     scanner_ = std::make_unique<scanner::VirtualScanner>(truth_, opts_.scanner, so);
+    if (opts_.evaluate && opts_.scannable) load_or_build_reference();
     if (fs::exists(dir_ / kCheckpointFile)) {
       auto j = json::parse(read_text_file(dir_ / kCheckpointFile), nullptr, false);
       AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_array(), "{}: corrupt checkpoints file",
@@ -147,6 +189,26 @@ class Loop {
       checkpoints_ = j;
     }
   }
+
+  // The scannable reference (scannable.hpp), on a grid of τ/4: built once, then read back (resume,
+  // or the other runs of a benchmark sharing `scannable_cache`).
+  void load_or_build_reference() {
+    const fs::path path = opts_.scannable_cache.empty() ? dir_ / "scannable.ply" : opts_.scannable_cache;
+    std::error_code ec;
+    if (fs::exists(path, ec)) {
+      reference_ = io::read_point_cloud(path);
+      return;
+    }
+    tick("scannable reference", 0.0);
+    const double voxel = 0.25 * opts_.eval.tau * truth_.bounds().diagonal();
+    auto ref = scannable_reference(truth_, opts_.scanner, opts_.rig, voxel, opts_.scannable_options);
+    log::info("simulate: scannable reference from {} views ({} skipped): {} points, {:.1f} s", ref.views_scanned,
+              ref.views_skipped, ref.cloud.size(), ref.seconds);
+    if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
+    io::write_point_cloud(path, ref.cloud);
+    reference_ = std::move(ref.cloud);
+  }
+  const PointCloud* reference() const { return reference_ ? &*reference_ : nullptr; }
 
   SimulateResult run(session::Session& s) {
     Stopwatch clock;
@@ -209,8 +271,9 @@ class Loop {
     const auto poses = scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind);
     if (!s.iterations().empty()) return;
     for (std::size_t i = 0; i < poses.size(); ++i) {
-      const bool done = std::any_of(s.scans().begin(), s.scans().end(),
-                                    [&](const session::ScanRecord& r) { return same_position(r.reported_pose, poses[i]); });
+      const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
+        return same_position(r.reported_pose, poses[i]);
+      });
       if (done) continue;
       scan_and_add(s, poses[i]);
       tick("blind scan", static_cast<double>(i + 1) / static_cast<double>(poses.size()));
@@ -228,11 +291,11 @@ class Loop {
       if (fs::exists(p)) loaded = io::read_mesh(p);
       mesh = &loaded;
     }
-    json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval);
+    json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval, reference());
     t["views_taken"] = views_done(s);
     s.attach_truth(last.index, t);
-    log::info("iteration {}: mean f {:.3f}, coverage {:.3f}, F-score {:.3f}, accuracy {:.5f}", last.index,
-              last.mean_f, t.value("coverage", 0.0), t.value("fscore", 0.0), t.value("accuracy_mean", 0.0));
+    log::info("iteration {}: mean f {:.3f}, coverage {:.3f}, F-score {:.3f}, accuracy {:.5f}", last.index, last.mean_f,
+              t.value("coverage", 0.0), t.value("fscore", 0.0), t.value("accuracy_mean", 0.0));
   }
 
   void maybe_checkpoint(session::Session& s) {
@@ -241,7 +304,7 @@ class Loop {
     for (const auto& c : checkpoints_)
       if (c.value("views", -1) == v) return;
     const auto model = session::reconstruct_model(s.model_points(), s.options());
-    json t = truth_figures(model.mesh, s.model_points(), truth_, opts_.eval);
+    json t = truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference());
     t["views"] = v;
     t["views_taken"] = v;
     t["mean_f"] = model.mean_f;
@@ -306,6 +369,7 @@ class Loop {
   std::unique_ptr<scanner::VirtualScanner> scanner_;
   json checkpoints_ = json::array();
   int skipped_ = 0;
+  std::optional<PointCloud> reference_;
 };
 
 }  // namespace

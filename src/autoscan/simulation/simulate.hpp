@@ -10,9 +10,8 @@
 // drive it, for --resume) and truth.ply (the normalised truth mesh). Resumable after a crash at any
 // moment: every scan is deterministic in (seed, scan id), so resume() re-derives what was done from
 // the session and continues; no acknowledged scan is lost or repeated.
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -23,21 +22,27 @@
 #include "autoscan/eval/metrics.hpp"
 #include "autoscan/scanner/blind_scan.hpp"
 #include "autoscan/session/options.hpp"
+#include "autoscan/simulation/scannable.hpp"
 
 namespace autoscan::simulation {
 
 struct SimulateOptions {
-  SimulateOptions() { session.consolidate.thinning.max_points = 200000; }
-  session::SessionOptions session;     ///< planner, stage options, budgets (max_views, max_iterations), seed;
-                                       ///< the model is thinned to at most 200k points per iteration
-  ScannerSpec scanner;                 ///< the virtual scanner (noise included)
-  Rig rig;                             ///< which poses the robot reaches
-  scanner::BlindScanOptions blind;     ///< the initial all-round scan (Figure 2(b))
-  bool normalize = true;               ///< bring the mesh into the benchmark frame (diagonal 1, centred)
-  bool evaluate = true;                ///< ground-truth figures per iteration
+  session::SessionOptions session;  ///< planner, stage options, budgets (max_views, max_iterations), seed;
+                                    ///< the model is thinned to at most 100k points per iteration
+  ScannerSpec scanner;              ///< the virtual scanner (noise included)
+  Rig rig;                          ///< which poses the robot reaches
+  scanner::BlindScanOptions blind;  ///< the initial all-round scan (Figure 2(b))
+  bool normalize = true;            ///< bring the mesh into the benchmark frame (diagonal 1, centred)
+  bool evaluate = true;             ///< ground-truth figures per iteration
   eval::EvalOptions eval = {0.005, 60000, 1, 20, 0.02};  ///< τ = 0.005 of the diagonal; fewer samples per iteration
-  std::vector<int> checkpoints;        ///< view budgets at which the model is evaluated (bench: 10,20,40)
-  bool report = true;                  ///< write report.html at the end
+  std::vector<int> checkpoints;  ///< view budgets at which the model is evaluated (bench: 10,20,40)
+  /// Coverage of the scannable surface too (scannable.hpp): what a dense, noise-free set of views
+  /// captures, cached in the run directory as scannable.ply (or at `scannable_cache`, e.g. shared
+  /// by the runs of a benchmark on one model).
+  bool scannable = true;
+  ScannableOptions scannable_options;
+  std::filesystem::path scannable_cache;
+  bool report = true;  ///< write report.html at the end
 
   void validate() const;
 };
@@ -50,12 +55,12 @@ SimulateOptions simulate_options_from_json(const nlohmann::json& j, SimulateOpti
 struct SimulateResult {
   std::filesystem::path directory;
   int iterations = 0;
-  int scans = 0;            ///< blind + next-best-view scans
-  int views = 0;            ///< next-best-view scans taken
-  int skipped_views = 0;    ///< views the scanner refused (unreachable, inside the object)
+  int scans = 0;          ///< blind + next-best-view scans
+  int views = 0;          ///< next-best-view scans taken
+  int skipped_views = 0;  ///< views the scanner refused (unreachable, inside the object)
   std::string stop_reason;
-  double mean_f = 0.0;      ///< last iteration's global confidence
-  nlohmann::json truth;     ///< last iteration's ground-truth figures (null when evaluate is off)
+  double mean_f = 0.0;   ///< last iteration's global confidence
+  nlohmann::json truth;  ///< last iteration's ground-truth figures (null when evaluate is off)
   nlohmann::json checkpoints = nlohmann::json::array();  ///< [{views, coverage, fscore, ...}]
   double seconds = 0.0;
   nlohmann::json to_json() const;
@@ -72,7 +77,9 @@ SimulateResult resume(const std::filesystem::path& out, const ProgressCallback& 
 
 /// Ground-truth figures of a model: the Poisson mesh against the truth (accuracy, completeness,
 /// precision/recall/F-score at τ, Figure 9 histogram) and the coverage of the raw points.
+/// With a scannable `reference` (scannable.hpp) also "coverage_scannable" (the coverage of the part of
+/// the truth the scanner can capture at all) and "scannable_share" (that part's share of the truth).
 nlohmann::json truth_figures(const TriangleMesh& recon, const PointCloud& raw_points, const TriangleMesh& truth,
-                             const eval::EvalOptions& options);
+                             const eval::EvalOptions& options, const PointCloud* reference = nullptr);
 
 }  // namespace autoscan::simulation

@@ -1,0 +1,108 @@
+#include "autoscan/simulation/scannable.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <unordered_set>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/random.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/scanner/virtual_scanner.hpp"
+#include "autoscan/shapes/primitives.hpp"
+#include "autoscan/shapes/sampling.hpp"
+
+namespace autoscan::simulation {
+namespace {
+
+Pose looking_at(const Vec3& position, const Vec3& target) {
+  const Vec3 d = (target - position).normalized();
+  return Pose::look_at(position, target, std::abs(d.z()) > 0.95 ? Vec3::UnitX() : Vec3::UnitZ());
+}
+
+}  // namespace
+
+ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,
+                                       const ScannableOptions& o) {
+  AUTOSCAN_REQUIRE(!truth.empty(), "scannable: empty truth mesh");
+  AUTOSCAN_REQUIRE(std::isfinite(voxel) && voxel > 0.0, "scannable: voxel must be > 0 (got {})", voxel);
+  AUTOSCAN_REQUIRE(o.surface_views >= 0 && o.sphere_views >= 0 && o.surface_views + o.sphere_views > 0,
+                   "scannable: need at least one view");
+  AUTOSCAN_REQUIRE(o.resolution_divisor >= 1 && o.resolution_divisor <= 16,
+                   "scannable: resolution_divisor {} "
+                   "out of range [1, 16]",
+                   o.resolution_divisor);
+  const Stopwatch clock;
+  ScannerSpec s = spec;
+  s.noise = NoiseSpec{};
+  s.noise.magnitude = 0.0;
+  s.width = std::max(16, spec.width / o.resolution_divisor);
+  s.height = std::max(16, spec.height / o.resolution_divisor);
+  scanner::VirtualScannerOptions so;
+  so.rig = rig;
+  const scanner::VirtualScanner sc(truth, s, so);
+  const double d = s.optimal_distance();
+
+  std::vector<Pose> poses;
+  if (o.surface_views > 0) {
+    Rng rng(o.seed);
+    const PointCloud samples = sample_surface(truth, static_cast<std::size_t>(o.surface_views), rng);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const Vec3 p = samples.positions[i], n = samples.normals[i];
+      if (n.squaredNorm() > 0) poses.push_back(looking_at(p + d * n.normalized(), p));
+    }
+  }
+  if (o.sphere_views > 0) {
+    const Vec3 c = truth.bounds().center();
+    int sub = 0;
+    while (sub < 4 && 10 * (1 << (2 * sub)) + 2 < o.sphere_views) ++sub;
+    const TriangleMesh ico = icosphere(1.0, sub);
+    for (std::size_t i = 0; i < ico.vertices.size() && static_cast<int>(i) < o.sphere_views; ++i)
+      poses.push_back(looking_at(c + d * ico.vertices[i].normalized(), c));
+  }
+
+  // Scan in parallel; merge into a voxel set (deterministic: the set of occupied voxels does not
+  // depend on the order, and the output is sorted by voxel key).
+  std::mutex m;
+  std::unordered_set<std::uint64_t> voxels;
+  ScannableReference out;
+  const Vec3 origin = truth.bounds().min - Vec3::Constant(2 * voxel);
+  auto key = [&](const Vec3& p) -> std::uint64_t {
+    const Eigen::Array3d q = ((p - origin) / voxel).array().floor();
+    if ((q < 0).any() || (q >= 2097151).any()) return ~std::uint64_t{0};
+    return std::uint64_t(q.x()) | (std::uint64_t(q.y()) << 21) | (std::uint64_t(q.z()) << 42);
+  };
+  tbb::parallel_for(std::size_t{0}, poses.size(), [&](std::size_t i) {
+    scanner::ScanResult r;
+    try {
+      r = sc.scan(poses[i], i, 1);
+    } catch (const InputError&) {
+      const std::lock_guard lock(m);
+      ++out.views_skipped;
+      return;
+    }
+    std::vector<std::uint64_t> keys;
+    keys.reserve(r.cloud.size());
+    for (const Vec3& p : r.cloud.positions) keys.push_back(key(p));
+    const std::lock_guard lock(m);
+    ++out.views_scanned;
+    voxels.insert(keys.begin(), keys.end());
+  });
+  voxels.erase(~std::uint64_t{0});
+  std::vector<std::uint64_t> sorted(voxels.begin(), voxels.end());
+  std::sort(sorted.begin(), sorted.end());
+  out.cloud.positions.reserve(sorted.size());
+  for (std::uint64_t k : sorted) {
+    const Vec3 q(double(k & 0x1fffff) + 0.5, double((k >> 21) & 0x1fffff) + 0.5, double(k >> 42) + 0.5);
+    out.cloud.positions.push_back(origin + voxel * q);
+  }
+  out.seconds = clock.seconds();
+  log::debug("scannable: {} views scanned, {} skipped, {} reference points, {:.1f} s", out.views_scanned,
+             out.views_skipped, out.cloud.size(), out.seconds);
+  return out;
+}
+
+}  // namespace autoscan::simulation

@@ -1,0 +1,44 @@
+#pragma once
+// What the scanner can capture at all: a reference cloud for coverage figures that except surfaces
+// no view reaches (issue 8: "surfaces no view can reach excepted: say how you count them").
+//
+// How it is counted. The same virtual scanner (same optics, projector, incidence and range rules,
+// same rig), noise-free, scans the truth from a dense, planner-independent set of views:
+//  * one view per surface sample (`surface_views` samples spread over the truth by area): at the
+//    optimal distance d_o along the sample's outward normal, looking at it (the view a perfect
+//    next-best-view planner would choose for that patch);
+//  * `sphere_views` views on a sphere of radius d_o around the object's centre, looking at it.
+// Views the rig cannot reach or that lie inside the object are skipped, as in a session. The union,
+// voxel-thinned, is the reference: a truth sample within τ of it is *scannable*
+// (eval::coverage_split). Surfaces left out are those no such view captures: deep concavities,
+// triangulation shadows, the underside a turntable rig cannot see.
+#include <cstdint>
+
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/rig.hpp"
+#include "autoscan/core/scanner_spec.hpp"
+
+namespace autoscan::simulation {
+
+struct ScannableOptions {
+  int surface_views = 300;     ///< views along the normals of area-uniform surface samples
+  int sphere_views = 42;       ///< views on the d_o sphere around the centre (icosphere vertices: 12, 42, 162)
+  int resolution_divisor = 2;  ///< camera resolution / this (the reference needs spacing < τ, not detail)
+  std::uint64_t seed = 7;      ///< which surface samples
+};
+
+struct ScannableReference {
+  PointCloud cloud;       ///< thinned union of the reference scans (positions only)
+  int views_scanned = 0;  ///< views that were reachable and outside the object
+  int views_skipped = 0;
+  double seconds = 0;
+};
+
+/// Noise-free reference scans of `truth` (already in its final frame) with `spec`'s optics and
+/// rules, thinned on a grid of `voxel` (world units; e.g. τ/2). Throws InputError for an empty mesh,
+/// voxel <= 0 or options out of range.
+ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,
+                                       const ScannableOptions& options = {});
+
+}  // namespace autoscan::simulation
