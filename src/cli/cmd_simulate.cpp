@@ -24,7 +24,8 @@ struct SimCli {
 };
 
 void add_loop_options(CLI::App* sub, SimCli& o) {
-  sub->add_option("--planner", o.planner, "View planner: poisson (ours), random, sphere, density, curvature, visibility, pvs");
+  sub->add_option("--planner", o.planner,
+                  "View planner: poisson (ours), random, sphere, density, curvature, visibility, pvs");
   sub->add_option("--max-views", o.max_views, "Budget of next-best-view scans (default 200)");
   sub->add_option("--max-iterations", o.max_iterations, "Budget of iterations (default 15)");
   sub->add_option("--noise", o.noise, "Scanner noise magnitude in [0, 1] (depth noise, outliers, pose error)");
@@ -86,6 +87,18 @@ void print_human(const autoscan::simulation::SimulateResult& r) {
   if (r.truth.is_object() && r.truth.contains("coverage"))
     fmt::print("against the truth: coverage {:.3f}, F-score {:.3f}, mean accuracy {:.5f}\n",
                r.truth.value("coverage", 0.0), r.truth.value("fscore", 0.0), r.truth.value("accuracy_mean", 0.0));
+  if (r.truth.is_object() && r.truth.contains("coverage_scannable"))
+    fmt::print("coverage of the scannable surface {:.4f} (the scannable part is {:.1f} % of the truth)\n",
+               r.truth.value("coverage_scannable", 0.0), 100.0 * r.truth.value("scannable_share", 0.0));
+  if (r.best_iteration + 1 != r.iterations && r.best_truth.is_object())
+    fmt::print(
+        "best model: iteration {} (mean confidence {:.3f}): coverage {:.3f}, F-score {:.3f}, mean accuracy "
+        "{:.5f}\n",
+        r.best_iteration, r.best_mean_f, r.best_truth.value("coverage", 0.0), r.best_truth.value("fscore", 0.0),
+        r.best_truth.value("accuracy_mean", 0.0));
+  if (r.pose_error_before > 0)
+    fmt::print("registration: scan points {:.5f} -> {:.5f} from where they belong (mean)\n", r.pose_error_before,
+               r.pose_error_after);
   fmt::print("results: {}\n", fs::absolute(r.directory).string());
   if (fs::exists(r.directory / "report.html"))
     fmt::print("report:  {}\n", fs::absolute(r.directory / "report.html").string());
@@ -95,7 +108,8 @@ void print_human(const autoscan::simulation::SimulateResult& r) {
 
 AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
   auto o = std::make_shared<SimCli>();
-  auto* sub = root.add_subcommand("simulate", "Run the full autonomous scanning loop on a mesh with the virtual scanner");
+  auto* sub =
+      root.add_subcommand("simulate", "Run the full autonomous scanning loop on a mesh with the virtual scanner");
   sub->add_option("--mesh", o->mesh, "Ground-truth mesh (PLY, OBJ, OFF, STL); normalised to diagonal 1");
   sub->add_option("--out", o->out, "Output (session) directory")->required();
   sub->add_flag("--resume", o->resume, "Continue the simulation in --out after a crash or kill");
@@ -134,8 +148,10 @@ AUTOSCAN_CLI_COMMAND(demo, 10, [](CLI::App& root, autoscan::cli::Globals& g) {
     base.session.max_views = 40;
     base.session.max_iterations = 8;
     const auto options = build_options(*o, base);
-    autoscan::log::info("demo: scanning the built-in procedural object (smooth, detailed, thin, overhanging and "
-                        "handle parts) into {}", o->out);
+    autoscan::log::info(
+        "demo: scanning the built-in procedural object (smooth, detailed, thin, overhanging and "
+        "handle parts) into {}",
+        o->out);
     const autoscan::ProceduralObject object;
     const auto mesh = object.mesh();
     fs::create_directories(o->out);

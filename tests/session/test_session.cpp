@@ -218,6 +218,25 @@ TEST(Session, RegistersScansWithAReportedPoseError) {
   fs::remove_all(dir);
 }
 
+TEST(Session, KeepsTheReportedPoseWhenTheCorrectionIsImplausible) {
+  // The same 6 mm error, with the robot's accuracy declared as 1 mm: the correction is rejected.
+  const auto dir = fresh_dir("register_bound");
+  auto o = test::test_options();
+  o.registration_max_translation = 0.001;
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+  s.set_reconstructor(scripted_reconstructor({0.5}));
+  add_blind_scans(s);
+  s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+  const Vec3 error(0.004, -0.003, 0.003);
+  PointCloud scan = sphere_scan(Vec3(0.8, 0.8, 0.6), 5000, 77);
+  for (auto& p : scan.positions) p += error;
+  const auto rec = s.add_scan(scan, pose_from(Vec3(0.8, 0.8, 0.6)));
+  ASSERT_TRUE(rec.registration.has_value());
+  EXPECT_GT(rec.registration->correction_translation, 0.004);                // ICP found it ...
+  EXPECT_TRUE(rec.correction.isApprox(Eigen::Isometry3d::Identity(), 0.0));  // ... but it was not applied
+  fs::remove_all(dir);
+}
+
 // ---- persistence --------------------------------------------------------------------------------------
 
 TEST(Persistence, OpenGivesTheSameState) {

@@ -130,9 +130,13 @@ void fields(SessionOptions& o, V& v) {
   v("nbv", o.nbv);
   v("icp", o.icp);
   v("register_scans", o.register_scans);
+  v("registration_min_improvement", o.registration_min_improvement);
+  v("registration_max_translation", o.registration_max_translation);
+  v("registration_max_rotation_deg", o.registration_max_rotation_deg);
   v("selective_insertion", o.selective_insertion);
   v("rho", o.rho);
   v("stop_threshold", o.stop_threshold);
+  v("stop_when_confidence_falls", o.stop_when_confidence_falls);
   v("max_iterations", o.max_iterations);
   v("max_views", o.max_views);
   v("seed", o.seed);
@@ -252,6 +256,13 @@ void SessionOptions::validate() const {
   AUTOSCAN_REQUIRE(!planner.empty(), "options: planner must not be empty");
   AUTOSCAN_REQUIRE(planner_params.is_object(), "options: planner_params must be a JSON object");
   AUTOSCAN_REQUIRE(std::isfinite(rho) && rho >= 0.0, "options: rho (Eq. 6) must be >= 0 (got {})", rho);
+  AUTOSCAN_REQUIRE(std::isfinite(registration_min_improvement) && registration_min_improvement >= 0.0 &&
+                       registration_min_improvement < 1.0,
+                   "options: registration_min_improvement must be in [0, 1) (got {})", registration_min_improvement);
+  AUTOSCAN_REQUIRE(
+      std::isfinite(registration_max_translation) && registration_max_translation >= 0.0 &&
+          std::isfinite(registration_max_rotation_deg) && registration_max_rotation_deg >= 0.0,
+      "options: registration_max_translation and registration_max_rotation_deg must be >= 0 (0 = no bound)");
   AUTOSCAN_REQUIRE(std::isfinite(stop_threshold) && stop_threshold >= 0.0,
                    "options: stop_threshold must be >= 0 (got {})", stop_threshold);
   AUTOSCAN_REQUIRE(max_iterations >= 1, "options: max_iterations must be >= 1 (got {})", max_iterations);

@@ -151,6 +151,7 @@ json to_json(const ScanRecord& r) {
             {"registered_pose", to_json(r.registered_pose)},
             {"correction", matrix_json(r.correction)},
             {"registration", r.registration ? registration::to_json(*r.registration) : json(nullptr)},
+            {"registration_accepted", !r.correction.isApprox(Eigen::Isometry3d::Identity(), 0.0)},
             {"seconds", {{"registration", r.seconds_registration}, {"insertion", r.seconds_insertion}}}};
   return j;
 }
@@ -367,10 +368,23 @@ struct Session::Impl {
     if (options.register_scans && has_model() && !scan.empty()) {
       const auto r = registration::icp(scan, target, target_weight, options.icp);
       rec.registration = r;
-      if (!r.degenerate)
-        rec.correction = r.correction;
-      else
+      const bool improves = r.rms_after <= (1.0 - options.registration_min_improvement) * r.rms_before;
+      const bool bounded = (options.registration_max_translation <= 0.0 ||
+                            r.correction_translation <= options.registration_max_translation) &&
+                           (options.registration_max_rotation_deg <= 0.0 ||
+                            r.correction_rotation_deg <= options.registration_max_rotation_deg);
+      if (r.degenerate)
         log::warn("scan {}: registration found too few correspondences; the reported pose is kept", rec.id);
+      else if (!improves)
+        log::debug("scan {}: registration lowered the residual only {:.4g} -> {:.4g}; the reported pose is kept",
+                   rec.id, r.rms_before, r.rms_after);
+      else if (!bounded)
+        log::info(
+            "scan {}: registration correction ({:.4g}, {:.2f} deg) exceeds the robot's accuracy; the "
+            "reported pose is kept",
+            rec.id, r.correction_translation, r.correction_rotation_deg);
+      else
+        rec.correction = r.correction;
     }
     rec.seconds_registration = clock.seconds();
     rec.registered_pose = rec.reported_pose.transformed(rec.correction);
@@ -601,6 +615,9 @@ NextViews Session::next_views(const Pose& current) {
   // The stop rule (§5.3), then the budgets.
   if (k > 0 && confidence_converged(m.iterations.back().mean_f, rec->mean_f, m.options.stop_threshold))
     it.stop_reason = "converged";
+  else if (k > 0 && m.options.stop_when_confidence_falls &&
+           m.iterations.back().mean_f - rec->mean_f >= m.options.stop_threshold)
+    it.stop_reason = "confidence_fell";
   else if (k + 1 >= m.options.max_iterations)
     it.stop_reason = "max_iterations";
   else if (m.views_planned >= m.options.max_views)

@@ -72,7 +72,7 @@ struct IterationRecord {
   nlohmann::json planner_diagnostics = nlohmann::json::object();
   nlohmann::json truth;  ///< null, or what a driver that knows the truth attached
   bool stopped = false;
-  std::string stop_reason;  ///< "", "converged", "max_iterations", "max_views", "no_views"
+  std::string stop_reason;  ///< "", "converged", "confidence_fell", "max_iterations", "max_views", "no_views"
 };
 
 struct NextViews {

@@ -136,6 +136,7 @@ json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
     // Every planner gets the whole view budget (the comparisons are at equal numbers of views, as
     // in the paper's Figures 12-14): the confidence stop rule is off here; `simulate` keeps it.
     o.session.stop_threshold = 0.0;
+    o.session.stop_when_confidence_falls = false;
     o.session.poisson.depth = g.depth;
     o.scanner.noise.magnitude = job.noise;
     o.checkpoints = g.views;

@@ -125,9 +125,21 @@ SimulateOptions simulate_options_from_json(const json& j, SimulateOptions o, con
 }
 
 json SimulateResult::to_json() const {
-  return {{"directory", directory.string()}, {"iterations", iterations},   {"scans", scans},   {"views", views},
-          {"skipped_views", skipped_views},  {"stop_reason", stop_reason}, {"mean_f", mean_f}, {"truth", truth},
-          {"checkpoints", checkpoints},      {"seconds", seconds}};
+  return {{"directory", directory.string()},
+          {"iterations", iterations},
+          {"scans", scans},
+          {"views", views},
+          {"skipped_views", skipped_views},
+          {"stop_reason", stop_reason},
+          {"mean_f", mean_f},
+          {"truth", truth},
+          {"checkpoints", checkpoints},
+          {"pose_error_before", pose_error_before},
+          {"pose_error_after", pose_error_after},
+          {"best_iteration", best_iteration},
+          {"best_mean_f", best_mean_f},
+          {"best_truth", best_truth},
+          {"seconds", seconds}};
 }
 
 json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const TriangleMesh& truth,
@@ -171,6 +183,7 @@ namespace {
 
 const char* kSimFile = "simulation.json";
 const char* kCheckpointFile = "checkpoints.json";
+const char* kRegistrationFile = "registration.json";
 
 bool same_position(const Pose& a, const Pose& b) { return (a.position - b.position).norm() < 1e-12; }
 
@@ -187,6 +200,10 @@ class Loop {
       AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_array(), "{}: corrupt checkpoints file",
                        (dir_ / kCheckpointFile).string());
       checkpoints_ = j;
+    }
+    if (fs::exists(dir_ / kRegistrationFile)) {
+      auto j = json::parse(read_text_file(dir_ / kRegistrationFile), nullptr, false);
+      if (!j.is_discarded() && j.is_array()) registration_errors_ = j;
     }
   }
 
@@ -226,6 +243,24 @@ class Loop {
       r.stop_reason = last.stop_reason;
       r.mean_f = last.mean_f;
       r.truth = last.truth;
+      // The session's best model: the iteration with the highest mean confidence (the loop may stop
+      // because the confidence fell, and then the previous model is the better one).
+      std::size_t best = 0;
+      for (std::size_t i = 1; i < s.iterations().size(); ++i)
+        if (s.iterations()[i].mean_f > s.iterations()[best].mean_f) best = i;
+      r.best_iteration = s.iterations()[best].index;
+      r.best_mean_f = s.iterations()[best].mean_f;
+      r.best_truth = s.iterations()[best].truth;
+    }
+    if (!registration_errors_.empty()) {
+      double b = 0, a = 0;
+      for (const auto& e : registration_errors_) b += e["before"].get<double>(), a += e["after"].get<double>();
+      r.pose_error_before = b / static_cast<double>(registration_errors_.size());
+      r.pose_error_after = a / static_cast<double>(registration_errors_.size());
+      log::info(
+          "simulate: registration moved the scans' points from {:.5f} to {:.5f} (mean distance from where "
+          "they belong, {} scans)",
+          r.pose_error_before, r.pose_error_after, registration_errors_.size());
     }
     fill_checkpoints(s, r);
     r.checkpoints = checkpoints_;
@@ -264,7 +299,29 @@ class Loop {
       log::info("simulate: scan {} captured no points", id);
     }
     s.add_scan(r.cloud, pose);
+    record_registration_error(s, r);
     return true;
+  }
+
+  // The simulator knows where the scanner really was: how far the reported pose put the scan's
+  // points from the truth (before), and how far they still are after the session's registration
+  // correction (after). Mean over (up to 2000) of the scan's points; scans without a model to
+  // register to are not counted.
+  void record_registration_error(const session::Session& s, const scanner::ScanResult& r) {
+    const auto& rec = s.scans().back();
+    if (!rec.registration || r.cloud.empty()) return;
+    const Eigen::Isometry3d truth = r.actual.world_from_camera() * r.commanded.world_from_camera().inverse();
+    const std::size_t n = r.cloud.size(), step = std::max<std::size_t>(1, n / 2000);
+    double before = 0, after = 0;
+    std::size_t m = 0;
+    for (std::size_t i = 0; i < n; i += step, ++m) {
+      const Vec3& p = r.cloud.positions[i];
+      const Vec3 t = truth * p;
+      before += (t - p).norm();
+      after += (rec.correction * p - t).norm();
+    }
+    registration_errors_.push_back({{"scan", rec.id}, {"before", before / m}, {"after", after / m}});
+    write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump(1));
   }
 
   void blind_phase(session::Session& s) {
@@ -370,6 +427,7 @@ class Loop {
   json checkpoints_ = json::array();
   int skipped_ = 0;
   std::optional<PointCloud> reference_;
+  json registration_errors_ = json::array();
 };
 
 }  // namespace
@@ -380,6 +438,13 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
   // The simulator knows its scanner's noise: WLOP (§4.1) runs only when there is noise to remove.
   if (options.session.consolidate.wlop.noise_hint < 0)
     options.session.consolidate.wlop.noise_hint = options.scanner.noise.magnitude;
+  // ... and its robot's pose accuracy: registration corrections beyond 6σ of the pose noise are not
+  // pose errors being fixed (§5.3).
+  const auto& nz = options.scanner.noise;
+  if (options.session.registration_max_translation == 0.0 && nz.magnitude > 0.0) {
+    options.session.registration_max_translation = 6.0 * nz.magnitude * nz.pose_translation_sigma;
+    options.session.registration_max_rotation_deg = 6.0 * nz.magnitude * nz.pose_rotation_sigma_deg;
+  }
   options.validate();
   AUTOSCAN_REQUIRE(!truth_in.empty(), "simulate: the mesh has no faces");
   truth_in.validate("simulate: mesh");

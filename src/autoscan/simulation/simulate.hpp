@@ -59,9 +59,16 @@ struct SimulateResult {
   int views = 0;          ///< next-best-view scans taken
   int skipped_views = 0;  ///< views the scanner refused (unreachable, inside the object)
   std::string stop_reason;
-  double mean_f = 0.0;   ///< last iteration's global confidence
-  nlohmann::json truth;  ///< last iteration's ground-truth figures (null when evaluate is off)
+  double mean_f = 0.0;     ///< last iteration's global confidence
+  nlohmann::json truth;    ///< last iteration's ground-truth figures (null when evaluate is off)
+  int best_iteration = 0;  ///< the iteration with the highest mean confidence (the session's best model)
+  double best_mean_f = 0.0;
+  nlohmann::json best_truth;                             ///< its ground-truth figures
   nlohmann::json checkpoints = nlohmann::json::array();  ///< [{views, coverage, fscore, ...}]
+  /// Registration against the truth (registration.json per scan): mean distance of the registered
+  /// scans' points from where they belong, with the reported pose (before) and after the session's
+  /// correction (after). 0 when no scan was registered.
+  double pose_error_before = 0.0, pose_error_after = 0.0;
   double seconds = 0.0;
   nlohmann::json to_json() const;
 };
