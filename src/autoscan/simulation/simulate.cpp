@@ -222,7 +222,9 @@ class Loop {
     log::info("simulate: scannable reference from {} views ({} skipped): {} points, {:.1f} s", ref.views_scanned,
               ref.views_skipped, ref.cloud.size(), ref.seconds);
     if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
-    io::write_point_cloud(path, ref.cloud);
+    io::WriteOptions exact;
+    exact.double_coordinates = true;
+    io::write_point_cloud(path, ref.cloud, exact);
     reference_ = std::move(ref.cloud);
   }
   const PointCloud* reference() const { return reference_ ? &*reference_ : nullptr; }
@@ -351,23 +353,36 @@ class Loop {
     json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval, reference());
     t["views_taken"] = views_done(s);
     s.attach_truth(last.index, t);
+    record_checkpoint(views_done(s), t, last.mean_f);
     log::info("iteration {}: mean f {:.3f}, coverage {:.3f}, F-score {:.3f}, accuracy {:.5f}", last.index, last.mean_f,
               t.value("coverage", 0.0), t.value("fscore", 0.0), t.value("accuracy_mean", 0.0));
   }
 
-  void maybe_checkpoint(session::Session& s) {
-    const int v = views_done(s);
-    if (std::find(opts_.checkpoints.begin(), opts_.checkpoints.end(), v) == opts_.checkpoints.end()) return;
+  bool is_pending_checkpoint(int v) const {
+    if (std::find(opts_.checkpoints.begin(), opts_.checkpoints.end(), v) == opts_.checkpoints.end()) return false;
     for (const auto& c : checkpoints_)
-      if (c.value("views", -1) == v) return;
-    const auto model = session::reconstruct_model(s.model_points(), s.options());
-    json t = truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference());
+      if (c.value("views", -1) == v) return false;
+    return true;
+  }
+
+  void record_checkpoint(int v, json t, double mean_f) {
+    if (!is_pending_checkpoint(v)) return;
     t["views"] = v;
     t["views_taken"] = v;
-    t["mean_f"] = model.mean_f;
+    t["mean_f"] = mean_f;
     t["reached"] = true;
     checkpoints_.push_back(t);
     write_text_atomic(dir_ / kCheckpointFile, checkpoints_.dump(1));
+  }
+
+  // A view budget reached in the middle of an iteration's views is evaluated on its own model. One
+  // reached with the iteration's last view is the next iteration's model: recorded when that
+  // iteration's truth figures are (attach_truth_if_missing), not reconstructed twice.
+  void maybe_checkpoint(session::Session& s, bool last_view_of_iteration) {
+    const int v = views_done(s);
+    if (last_view_of_iteration || !is_pending_checkpoint(v)) return;
+    const auto model = session::reconstruct_model(s.model_points(), s.options());
+    record_checkpoint(v, truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference()), model.mean_f);
   }
 
   void fill_checkpoints(const session::Session& s, SimulateResult& r) {
@@ -405,13 +420,14 @@ class Loop {
       const auto vj = json::parse(read_text_file(vpath), nullptr, false);
       AUTOSCAN_REQUIRE(!vj.is_discarded(), "{}: not valid JSON", vpath.string());
       const auto views = planners::views_from_json(vj, vpath.string());
-      for (const auto& view : views) {
+      for (std::size_t vi = 0; vi < views.size(); ++vi) {
+        const auto& view = views[vi];
         const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
           return r.model_iteration == k && same_position(r.reported_pose, view.pose);
         });
         if (done) continue;
         if (views_done(s) >= max_views) break;
-        if (scan_and_add(s, view.pose)) maybe_checkpoint(s);
+        if (scan_and_add(s, view.pose)) maybe_checkpoint(s, vi + 1 == views.size() || views_done(s) >= max_views);
         tick("next-best views", std::min(1.0, views_done(s) / static_cast<double>(max_views)));
       }
       const auto step = s.next_views();
@@ -454,7 +470,11 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
   TriangleMesh truth = truth_in;
   if (options.normalize) normalize_to_benchmark_frame(truth);
   fs::create_directories(out);
-  io::write_mesh(out / "truth.ply", truth);
+  // Double precision: resume() rebuilds the virtual scanner from this file, and a float-rounded mesh
+  // would make every later scan differ from an uninterrupted run's in the last bits.
+  io::WriteOptions exact;
+  exact.double_coordinates = true;
+  io::write_mesh(out / "truth.ply", truth, exact);
   json sim = {{"format", "autoscan-simulation"}, {"version", 1}, {"truth", "truth.ply"}, {"options", to_json(options)}};
   write_text_atomic(out / kSimFile, sim.dump(2));
   auto s = session::Session::create(out, options.scanner, options.rig, options.session);
