@@ -251,3 +251,43 @@ TEST(Baselines, DensityTargetsTheHoleAndVisibilityTheGrazingBand) {
     EXPECT_LT(view.pose.position.z(), view.target.z());
   }
 }
+
+TEST(PoissonPlanner, IgnoresPhantomSurfaceThatScannerRaysWentThrough) {
+  // Low-confidence iso-points floating just in front of the sphere, where the +x sensor's rays
+  // passed on their way to the surface: a Poisson surface bridging empty space (a "phantom").
+  const Fixture& fx = fixture(false);
+  ModelState st = fx.state;
+  // The real surface is confident, the phantom is not.
+  std::vector<double> f(st.iso_points.size(), 0.95);
+  const Vec3 phantom(0.35, 0.0, 0.0);
+  std::size_t added = 0;
+  for (int a = -5; a <= 5; ++a)
+    for (int b = -5; b <= 5; ++b) {
+      st.iso_points.positions.push_back(phantom + Vec3(0, 0.004 * a, 0.004 * b));
+      st.iso_points.normals.push_back(Vec3::UnitX());
+      f.push_back(0.0);
+      ++added;
+    }
+  st.iso_points.scalars.set("f", f);
+  // A view drawn by the phantom looks at it from its side (+x), aimed near it (Eq. 5 aims at the
+  // mean of the low-confidence iso-points around the target, so the aim lands close, not on it).
+  auto targets_phantom = [&](const PlanOutput& out) {
+    for (const auto& v : out.views)
+      if ((v.target - phantom).norm() < 0.15 && v.pose.position.normalized().x() > std::cos(0.6)) return true;
+    return false;
+  };
+  PlannerOptions off = small_options();
+  off.params = {{"phantom_suppression", false}};
+  const auto plain = run("poisson", fx, 1, &st, off);
+  ASSERT_TRUE(targets_phantom(plain)) << "the test needs the phantom to attract a view without suppression";
+  // The fixture's rays are sparse (5000 sphere points), so the carving grid is coarse to match.
+  PlannerOptions on = small_options();
+  on.params = {{"phantom_grid_resolution", 48}};
+  const auto carved = run("poisson", fx, 1, &st, on);
+  EXPECT_GE(carved.diagnostics.value("phantom_iso_points", 0), static_cast<int>(added) - 2);
+  EXPECT_FALSE(targets_phantom(carved));  // (the rest is confident: no view at all is a right answer)
+  // Unknown parameters are still an error.
+  PlannerOptions bad = small_options();
+  bad.params = {{"phantom_supression", true}};
+  EXPECT_THROW(make_planner("poisson", bad), InputError);
+}

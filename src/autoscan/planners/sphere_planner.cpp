@@ -98,13 +98,14 @@ void OccupancyGrid::traverse(const Vec3& o, const Vec3& d, double t_max, Visit&&
   }
 }
 
-void OccupancyGrid::integrate(const Vec3& sensor, const Vec3& point) {
+void OccupancyGrid::integrate(const Vec3& sensor, const Vec3& point, double stop_short) {
   const Vec3 v = point - sensor;
   const double len = v.norm();
   if (!(len > 1e-12)) return;
   const long long hit = index_of(point);
-  traverse(sensor, v / len, len, [&](std::size_t idx, double, double) {
-    if (static_cast<long long>(idx) == hit) return false;
+  const double free_until = len - std::max(0.0, stop_short);
+  traverse(sensor, v / len, len, [&](std::size_t idx, double t_enter, double) {
+    if (static_cast<long long>(idx) == hit || t_enter >= free_until) return false;
     if (state_[idx] == unknown) state_[idx] = free;
     return true;
   });

@@ -49,8 +49,9 @@ class OccupancyGrid {
   State at(std::size_t idx) const { return State(state_[idx]); }
   /// Linear index of the voxel holding p, or -1 outside.
   long long index_of(const Vec3& p) const;
-  /// Ray casting of one scan: free along sensor -> point, occupied at the point.
-  void integrate(const Vec3& sensor, const Vec3& point);
+  /// Ray casting of one scan: free along sensor -> point (voxels entered at least `stop_short`
+  /// before the point), occupied at the point.
+  void integrate(const Vec3& sensor, const Vec3& point, double stop_short = 0.0);
   /// Unknown voxels seen from `origin` along the unit `dir` with distance in [t_near, t_far],
   /// stopping at the first occupied voxel; appended to `out`.
   void unknown_along(const Vec3& origin, const Vec3& dir, double t_near, double t_far,
