@@ -25,21 +25,24 @@ bool cgal_parallel_available() {
 }
 
 std::vector<Vec3> cgal_wlop(std::vector<Vec3> points, double select_percentage, double radius, int iterations,
-                            bool uniform_sampling, bool parallel, const std::function<bool(double)>& callback) {
+                            bool uniform_sampling, bool parallel) {
   std::vector<Point> in;
   in.reserve(points.size());
   for (const auto& p : points) in.emplace_back(p.x(), p.y(), p.z());
   points.clear();
   std::vector<Point> out;
-  const auto np = CGAL::parameters::select_percentage(select_percentage)
-                      .neighbor_radius(radius)
-                      .number_of_iterations(static_cast<unsigned>(iterations))
-                      .require_uniform_sampling(uniform_sampling)
-                      .callback(callback);
+  auto run = [&](auto tag) {
+    CGAL::wlop_simplify_and_regularize_point_set<decltype(tag)>(
+        in, std::back_inserter(out),
+        CGAL::parameters::select_percentage(select_percentage)
+            .neighbor_radius(radius)
+            .number_of_iterations(static_cast<unsigned>(iterations))
+            .require_uniform_sampling(uniform_sampling));
+  };
   if (parallel)
-    CGAL::wlop_simplify_and_regularize_point_set<CGAL::Parallel_if_available_tag>(in, std::back_inserter(out), np);
+    run(CGAL::Parallel_if_available_tag{});
   else
-    CGAL::wlop_simplify_and_regularize_point_set<CGAL::Sequential_tag>(in, std::back_inserter(out), np);
+    run(CGAL::Sequential_tag{});
   std::vector<Vec3> result;
   result.reserve(out.size());
   for (const auto& p : out) {

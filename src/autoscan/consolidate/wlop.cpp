@@ -1,5 +1,4 @@
 // WLOP step: parameters, seeding, attribute transfer; the projection itself is CGAL's (cgal_backend.cpp).
-#include <atomic>
 #include <cmath>
 #include <numeric>
 
@@ -51,22 +50,12 @@ WlopReport apply_wlop(PointCloud& cloud, const WlopOptions& o, ProgressCallback 
   Rng rng(o.seed);
   for (std::size_t i = n; i > 1; --i) std::swap(input[i - 1], input[rng.uniform_int(i)]);
 
-  std::atomic<bool> cancelled{false};
-  std::function<bool(double)> cb;
-  if (report_progress) {
-    cb = [&prog, &cancelled](double f) {
-      try {
-        prog.report(f);
-        return true;
-      } catch (const Cancelled&) {
-        cancelled = true;
-        return false;
-      }
-    };
-  }
+  // Progress around the CGAL call (see cgal_backend.hpp for why CGAL gets no callback); a progress
+  // callback that returns false stops here, before the work starts.
+  if (report_progress) prog.report(0.0);
   std::vector<Vec3> out = detail::cgal_wlop(std::move(input), o.select_percentage, r.radius, o.iterations,
-                                            o.uniform_sampling, o.parallel, cb);
-  if (cancelled) throw Cancelled("wlop");
+                                            o.uniform_sampling, o.parallel);
+  if (report_progress) prog.report(1.0);
   AUTOSCAN_CHECK(!out.empty(), "wlop: CGAL returned no points");
 
   // Attributes of each new point: those of its nearest input point.
