@@ -137,6 +137,8 @@ json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
     // in the paper's Figures 12-14): the confidence stop rule is off here; `simulate` keeps it.
     o.session.stop_threshold = 0.0;
     o.session.stop_when_confidence_falls = false;
+    // Many runs: each reconstruction consolidates at most 100k points (the session default is 200k).
+    o.session.consolidate.thinning.max_points = 100000;
     o.session.poisson.depth = g.depth;
     o.scanner.noise.magnitude = job.noise;
     o.checkpoints = g.views;

@@ -28,7 +28,7 @@ namespace autoscan::simulation {
 
 struct SimulateOptions {
   session::SessionOptions session;  ///< planner, stage options, budgets (max_views, max_iterations), seed;
-                                    ///< the model is thinned to at most 100k points per iteration
+                                    ///< the model is thinned to at most 200k points per iteration
   ScannerSpec scanner;              ///< the virtual scanner (noise included)
   Rig rig;                          ///< which poses the robot reaches
   scanner::BlindScanOptions blind;  ///< the initial all-round scan (Figure 2(b))
