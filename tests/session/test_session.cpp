@@ -144,6 +144,24 @@ TEST(StopRule, StopsWhenMeanConfidenceSettles) {
   fs::remove_all(dir);
 }
 
+TEST(StopRule, AFallStopsOnlyWhenAskedFor) {
+  for (const bool stop_on_fall : {false, true}) {
+    const auto dir = fresh_dir(stop_on_fall ? "stop_fall_on" : "stop_fall_off");
+    auto o = test::test_options();
+    o.stop_when_confidence_falls = stop_on_fall;
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
+    s.set_reconstructor(scripted_reconstructor({0.5, 0.4, 0.6, 0.9}));
+    add_blind_scans(s);
+    auto a = s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+    ASSERT_FALSE(a.stopped);
+    for (const auto& v : a.views) s.add_scan(sphere_scan(v.pose.position, 800, 50), v.pose);
+    auto b = s.next_views(a.views.back().pose);  // Δ = -0.1
+    EXPECT_EQ(b.stopped, stop_on_fall);
+    if (stop_on_fall) EXPECT_EQ(b.reason, "confidence_fell");
+    fs::remove_all(dir);
+  }
+}
+
 TEST(StopRule, IterationAndViewBudgets) {
   {
     const auto dir = fresh_dir("stop_iter");
