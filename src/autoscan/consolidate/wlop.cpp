@@ -53,8 +53,8 @@ WlopReport apply_wlop(PointCloud& cloud, const WlopOptions& o, ProgressCallback 
   // Progress around the CGAL call (see cgal_backend.hpp for why CGAL gets no callback); a progress
   // callback that returns false stops here, before the work starts.
   if (report_progress) prog.report(0.0);
-  std::vector<Vec3> out = detail::cgal_wlop(std::move(input), o.select_percentage, r.radius, o.iterations,
-                                            o.uniform_sampling, o.parallel);
+  std::vector<Vec3> out =
+      detail::cgal_wlop(std::move(input), o.select_percentage, r.radius, o.iterations, o.uniform_sampling, o.parallel);
   if (report_progress) prog.report(1.0);
   AUTOSCAN_CHECK(!out.empty(), "wlop: CGAL returned no points");
 

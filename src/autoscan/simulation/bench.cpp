@@ -352,7 +352,8 @@ json collect(const fs::path& dir, const fs::path& markdown_out) {
         md << "\n";
       }
       // The F-score saturates on well-covered objects; the mean error of the Poisson mesh still ranks.
-      md << "\nMean distance of the Poisson mesh to the truth (accuracy, units of 1e-4 of the diagonal):\n\n| planner |";
+      md << "\nMean distance of the Poisson mesh to the truth (accuracy, units of 1e-4 of the diagonal):\n\n| planner "
+            "|";
       for (int v : g.views) md << " " << v << " views |";
       md << "\n|---|";
       for (std::size_t i = 0; i < g.views.size(); ++i) md << "---|";
