@@ -3,7 +3,10 @@
 // Each solver runs in its own child process (fork), so that its peak resident memory (ru_maxrss of
 // the child) and its time are measured alone; both meshes are then compared with the true mesh
 // (autoscan::eval: Chamfer = (accuracy mean + completeness mean) / 2, F-score at 0.5 % of the
-// diagonal). Usage: compare_poisson_open3d [--quick] (quick: 100k points, depth 8, bunny only).
+// diagonal). Usage: compare_poisson_open3d [--quick] (quick: 100k points, depth 8, bunny only), or
+// compare_poisson_open3d --diagnose [MODEL [POINTS [DEPTH [SCREENING:SPN[:REFINE] ...]]]] for the
+// distance percentiles of both meshes and of our variants (NO_PEER=1 skips Open3D, DUMP=DIR writes
+// the meshes).
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/geometry/TriangleMesh.h>
 #include <sys/resource.h>
@@ -136,30 +139,6 @@ int main(int argc, char** argv) {
       if (std::getenv("DUMP") && v.iters == 12 && v.screening == 4.0 && v.spn == 1.5)
         io::write_mesh(std::string(std::getenv("DUMP")) + "/ours.ply", res.mesh);
     }
-    return 0;
-  }
-  if (argc > 1 && std::string(argv[1]) == "--sweep") {  // our options on bunny00, 100k points, depth 8
-    TriangleMesh truth = io::read_mesh(std::string(AUTOSCAN_MODELS_DIR) + "/bunny00.off");
-    normalize_to_benchmark_frame(truth);
-    Rng rng(7);
-    PointCloud pc = sample_surface(truth, 100000, rng);
-    pc.scalars.clear();
-    for (int it : {12, 40})
-      for (double scr : {4.0, 16.0})
-        for (double spn : {1.5, 4.0}) {
-          poisson::PoissonOptions opt;
-          opt.depth = 8;
-          opt.fine_iterations = it;
-          opt.screening = scr;
-          opt.samples_per_node = spn;
-          const auto t0 = std::chrono::steady_clock::now();
-          const auto res = poisson::reconstruct(pc, opt);
-          const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-          const auto e = eval::evaluate_mesh(res.mesh, truth);
-          std::printf("iters %d screening %g spn %g: %.2f s, accuracy %.6f completeness %.6f chamfer %.6f F %.4f\n", it,
-                      scr, spn, s, e.accuracy.mean, e.completeness.mean, 0.5 * (e.accuracy.mean + e.completeness.mean),
-                      e.fscore);
-        }
     return 0;
   }
   std::printf(

@@ -157,7 +157,9 @@ TEST(StopRule, AFallStopsOnlyWhenAskedFor) {
     for (const auto& v : a.views) s.add_scan(sphere_scan(v.pose.position, 800, 50), v.pose);
     auto b = s.next_views(a.views.back().pose);  // Δ = -0.1
     EXPECT_EQ(b.stopped, stop_on_fall);
-    if (stop_on_fall) EXPECT_EQ(b.reason, "confidence_fell");
+    if (stop_on_fall) {
+      EXPECT_EQ(b.reason, "confidence_fell");
+    }
     fs::remove_all(dir);
   }
 }
@@ -209,17 +211,28 @@ TEST(StopRule, IterationAndViewBudgets) {
 
 // ---- registration inside the session ----------------------------------------------------------------
 
-TEST(Session, RegistersScansWithAReportedPoseError) {
-  const auto dir = fresh_dir("register");
-  auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+namespace {
+
+// The robot reports a pose 6 mm off: the scan arrives shifted in the world frame by kPoseError.
+const Vec3 kPoseError(0.004, -0.003, 0.003);
+
+/// A session with one model (scripted, f = 0.5) that receives one sphere scan shifted by kPoseError.
+ScanRecord add_misplaced_scan(Session& s) {
   s.set_reconstructor(scripted_reconstructor({0.5}));
   add_blind_scans(s);
   s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
-  // The robot reports a pose 6 mm off: the scan arrives shifted in the world frame.
-  const Vec3 error(0.004, -0.003, 0.003);
   PointCloud scan = sphere_scan(Vec3(0.8, 0.8, 0.6), 5000, 77);
-  for (auto& p : scan.positions) p += error;
-  const auto rec = s.add_scan(scan, pose_from(Vec3(0.8, 0.8, 0.6)));
+  for (auto& p : scan.positions) p += kPoseError;
+  return s.add_scan(scan, pose_from(Vec3(0.8, 0.8, 0.6)));
+}
+
+}  // namespace
+
+TEST(Session, RegistersScansWithAReportedPoseError) {
+  const auto dir = fresh_dir("register");
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+  const auto rec = add_misplaced_scan(s);
+  const Vec3& error = kPoseError;
   ASSERT_TRUE(rec.registration.has_value());
   EXPECT_FALSE(rec.registration->degenerate);
   EXPECT_LT((rec.correction.translation() + error).norm(), 0.1 * error.norm());
@@ -242,13 +255,7 @@ TEST(Session, KeepsTheReportedPoseWhenTheCorrectionIsImplausible) {
   auto o = test::test_options();
   o.registration_max_translation = 0.001;
   auto s = Session::create(dir, ScannerSpec{}, Rig{}, o);
-  s.set_reconstructor(scripted_reconstructor({0.5}));
-  add_blind_scans(s);
-  s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
-  const Vec3 error(0.004, -0.003, 0.003);
-  PointCloud scan = sphere_scan(Vec3(0.8, 0.8, 0.6), 5000, 77);
-  for (auto& p : scan.positions) p += error;
-  const auto rec = s.add_scan(scan, pose_from(Vec3(0.8, 0.8, 0.6)));
+  const auto rec = add_misplaced_scan(s);
   ASSERT_TRUE(rec.registration.has_value());
   EXPECT_GT(rec.registration->correction_translation, 0.004);                // ICP found it ...
   EXPECT_TRUE(rec.correction.isApprox(Eigen::Isometry3d::Identity(), 0.0));  // ... but it was not applied

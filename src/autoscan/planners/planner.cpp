@@ -40,19 +40,9 @@ class PoissonPlanner final : public Planner {
   std::string name() const override { return "poisson"; }
 
   void observe_scan(const PointCloud& scan, const Pose& pose) override {
-    if (!phantom_ || scan.empty()) return;
-    const auto* sx = scan.scalars.find("sensor_x");
-    const auto* sy = scan.scalars.find("sensor_y");
-    const auto* sz = scan.scalars.find("sensor_z");
-    const bool per_point = sx && sy && sz;
-    const std::size_t n = scan.size(), stride = std::max<std::size_t>(1, (n + max_rays_ - 1) / max_rays_);
-    Rays r;
-    for (std::size_t i = 0; i < n; i += stride) {
-      r.points.push_back(scan.positions[i]);
-      r.sensors.push_back(per_point ? Vec3((*sx)[i], (*sy)[i], (*sz)[i]) : pose.position);
-    }
-    pending_.push_back(std::move(r));
-    if (!grid_.empty()) flush();
+    if (!phantom_) return;
+    rays_.add(scan, pose, static_cast<std::size_t>(max_rays_));
+    if (!grid_.empty()) carve();
   }
 
   PlanOutput plan(const ModelState& state, const Pose& current, Rng& rng) override {
@@ -73,7 +63,7 @@ class PoissonPlanner final : public Planner {
         const double side = 1.2 * std::max(box.extent().maxCoeff(), 1e-6);
         grid_ = OccupancyGrid(box.center() - Vec3::Constant(0.5 * side), side / grid_resolution_, grid_resolution_);
       }
-      flush();
+      carve();
       auto f = iso.scalars.get("f");
       for (std::size_t i = 0; i < iso.size(); ++i) {
         const long long idx = grid_.index_of(iso.positions[i]);
@@ -99,15 +89,7 @@ class PoissonPlanner final : public Planner {
   }
 
  private:
-  struct Rays {
-    std::vector<Vec3> sensors, points;
-  };
-  void flush() {
-    const double stop = stop_cells_ * grid_.cell();
-    for (const auto& r : pending_)
-      for (std::size_t i = 0; i < r.points.size(); ++i) grid_.integrate(r.sensors[i], r.points[i], stop);
-    pending_.clear();
-  }
+  void carve() { rays_.integrate_into(grid_, stop_cells_ * grid_.cell()); }
   PlannerOptions options_;
   std::unique_ptr<nbv::NbvPlanner> nbv_;
   bool phantom_ = true;
@@ -115,7 +97,7 @@ class PoissonPlanner final : public Planner {
   double stop_cells_ = 2.0;
   int max_rays_ = 30000;
   OccupancyGrid grid_;
-  std::vector<Rays> pending_;
+  RayBuffer rays_;
 };
 
 struct Registry {

@@ -10,11 +10,10 @@
 //      every stored scan after Session::open, so state built only from observe_scan survives a
 //      restart without being saved;
 //   3. plan(state, current, rng) once per iteration, after consolidation, Poisson and confidence.
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,26 +34,26 @@ namespace autoscan::planners {
 /// read what they need and ignore the rest (random: nothing; sphere: the bounds; density/pvs: the raw
 /// cloud; curvature/visibility: the mesh; poisson: the field, mesh and iso-points).
 struct ModelState {
-  int iteration = 0;           ///< 0-based index of the iteration being planned
-  PointCloud raw;              ///< every point inserted so far (world frame, registered); scalars
-                               ///< "scan_id" and "sensor_x/y/z" where the scans had them
-  PointCloud consolidated;     ///< the consolidated cloud (§4.1), unit outward normals
+  int iteration = 0;                           ///< 0-based index of the iteration being planned
+  PointCloud raw;                              ///< every point inserted so far (world frame, registered); scalars
+                                               ///< "scan_id" and "sensor_x/y/z" where the scans had them
+  PointCloud consolidated;                     ///< the consolidated cloud (§4.1), unit outward normals
   std::shared_ptr<const ImplicitField> field;  ///< the Poisson field χ (larger inside); may be null
-  double reference_gradient = 0.0;  ///< |∇χ| of a densely sampled surface (normalises f_g, Eq. 1)
-  TriangleMesh mesh;           ///< the Poisson iso-surface, vertex scalars f, f_g, f_s (and density)
-  PointCloud iso_points;       ///< iso-points s_k (§4.2), outward normals, scalars f, f_g, f_s
-  double mean_f = 0.0;         ///< global confidence (mean of f over the iso-points)
-  ScannerSpec scanner;         ///< the scanner's working range, field of view...
-  Rig rig;                     ///< which poses the robot can reach and what moving costs
-  AABB acquired_bounds;        ///< bounding box of the acquired (raw) points
-  std::vector<Pose> scan_poses;  ///< the poses of every scan so far, in order
+  double reference_gradient = 0.0;             ///< |∇χ| of a densely sampled surface (normalises f_g, Eq. 1)
+  TriangleMesh mesh;                           ///< the Poisson iso-surface, vertex scalars f, f_g, f_s (and density)
+  PointCloud iso_points;                       ///< iso-points s_k (§4.2), outward normals, scalars f, f_g, f_s
+  double mean_f = 0.0;                         ///< global confidence (mean of f over the iso-points)
+  ScannerSpec scanner;                         ///< the scanner's working range, field of view...
+  Rig rig;                                     ///< which poses the robot can reach and what moving costs
+  AABB acquired_bounds;                        ///< bounding box of the acquired (raw) points
+  std::vector<Pose> scan_poses;                ///< the poses of every scan so far, in order
 };
 
 /// One proposed view.
 struct PlannedView {
-  Pose pose;                    ///< where the scanner goes and where it looks
-  double score = 0.0;           ///< the planner's score (ours: g(v_i), Eq. 4)
-  Vec3 target = Vec3::Zero();   ///< the point the view aims at (ours: s_k', Eq. 5)
+  Pose pose;                   ///< where the scanner goes and where it looks
+  double score = 0.0;          ///< the planner's score (ours: g(v_i), Eq. 4)
+  Vec3 target = Vec3::Zero();  ///< the point the view aims at (ours: s_k', Eq. 5)
 };
 
 struct PlanOutput {

@@ -128,27 +128,29 @@ SpherePlanner::SpherePlanner(const PlannerOptions& options)
   options.nbv.validate();
 }
 
-void SpherePlanner::observe_scan(const PointCloud& scan, const Pose& pose) {
+void RayBuffer::add(const PointCloud& scan, const Pose& pose, std::size_t max_rays) {
   if (scan.empty()) return;
   const auto* sx = scan.scalars.find("sensor_x");
   const auto* sy = scan.scalars.find("sensor_y");
   const auto* sz = scan.scalars.find("sensor_z");
   const bool per_point = sx && sy && sz;
   const std::size_t n = scan.size();
-  const std::size_t stride = (n + options_.max_rays_per_scan - 1) / std::size_t(options_.max_rays_per_scan);
-  Pending p;
-  for (std::size_t i = 0; i < n; i += std::max<std::size_t>(1, stride)) {
-    p.points.push_back(scan.positions[i]);
-    p.sensors.push_back(per_point ? Vec3((*sx)[i], (*sy)[i], (*sz)[i]) : pose.position);
+  const std::size_t stride = std::max<std::size_t>(1, (n + max_rays - 1) / std::max<std::size_t>(1, max_rays));
+  for (std::size_t i = 0; i < n; i += stride) {
+    points_.push_back(scan.positions[i]);
+    sensors_.push_back(per_point ? Vec3((*sx)[i], (*sy)[i], (*sz)[i]) : pose.position);
   }
-  pending_.push_back(std::move(p));
-  if (!grid_.empty()) flush();
 }
 
-void SpherePlanner::flush() {
-  for (const auto& p : pending_)
-    for (std::size_t i = 0; i < p.points.size(); ++i) grid_.integrate(p.sensors[i], p.points[i]);
-  pending_.clear();
+void RayBuffer::integrate_into(OccupancyGrid& grid, double stop_short) {
+  for (std::size_t i = 0; i < points_.size(); ++i) grid.integrate(sensors_[i], points_[i], stop_short);
+  points_.clear();
+  sensors_.clear();
+}
+
+void SpherePlanner::observe_scan(const PointCloud& scan, const Pose& pose) {
+  rays_.add(scan, pose, static_cast<std::size_t>(options_.max_rays_per_scan));
+  if (!grid_.empty()) rays_.integrate_into(grid_);
 }
 
 PlanOutput SpherePlanner::plan(const ModelState& state, const Pose& current, Rng& rng) {
@@ -157,16 +159,14 @@ PlanOutput SpherePlanner::plan(const ModelState& state, const Pose& current, Rng
   state.scanner.validate("planner 'sphere': scanner");
   if (grid_.empty()) {
     AABB box = state.acquired_bounds;
-    if (box.empty())
-      for (const auto& p : pending_)
-        for (const auto& q : p.points) box.extend(q);
+    if (box.empty()) box = rays_.bounds();
     AUTOSCAN_REQUIRE(!box.empty(), "planner 'sphere': no acquired points yet (observe a scan first)");
     const double extent = std::max(box.extent().maxCoeff(), 1e-3 * state.scanner.optimal_distance());
     const double side = extent * (1.0 + 2.0 * options_.grid_margin);
     grid_ = OccupancyGrid(box.center() - Vec3::Constant(0.5 * side), side / options_.grid_resolution,
                           options_.grid_resolution);
   }
-  flush();
+  rays_.integrate_into(grid_);
 
   // Candidates on the view sphere.
   const Vec3 center = detail::object_center(state);

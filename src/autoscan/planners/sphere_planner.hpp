@@ -67,6 +67,22 @@ class OccupancyGrid {
   std::vector<std::uint8_t> state_;
 };
 
+/// Scanner rays waiting for an occupancy grid. Each observed scan is evenly subsampled to at most
+/// `max_rays` rays, from the points' "sensor_x/y/z" scalars when present, else from the scan pose;
+/// the rays are integrated once a grid exists (its box is chosen at the first plan()). Shared by
+/// `sphere` and by `poisson`'s phantom suppression.
+class RayBuffer {
+ public:
+  void add(const PointCloud& scan, const Pose& pose, std::size_t max_rays);
+  /// The buffered rays' end points (to size a grid before the first integration).
+  AABB bounds() const { return AABB::of(points_); }
+  /// Integrates and clears the buffered rays (OccupancyGrid::integrate with `stop_short`).
+  void integrate_into(OccupancyGrid& grid, double stop_short = 0.0);
+
+ private:
+  std::vector<Vec3> sensors_, points_;
+};
+
 class SpherePlanner final : public Planner {
  public:
   explicit SpherePlanner(const PlannerOptions& options);
@@ -76,14 +92,10 @@ class SpherePlanner final : public Planner {
   const OccupancyGrid& grid() const { return grid_; }
 
  private:
-  struct Pending {
-    std::vector<Vec3> sensors, points;
-  };
-  void flush();
   int views_ = 10;
   SpherePlannerOptions options_;
   OccupancyGrid grid_;
-  std::vector<Pending> pending_;
+  RayBuffer rays_;
 };
 
 }  // namespace autoscan::planners

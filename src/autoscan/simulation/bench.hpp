@@ -5,9 +5,8 @@
 // finished ones (resumable); `job_commands` prints one self-contained command per job for GNU
 // parallel or a cluster job array; `collect` merges whatever results exist into tables (CSV, JSON,
 // Markdown) and plots (SVG).
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -16,14 +15,15 @@
 namespace autoscan::simulation {
 
 struct BenchGrid {
-  std::vector<std::string> models = {"bunny00", "armadillo", "refined_elephant", "anchor_dense"};  ///< names in
-                                   ///< the models directory, "procedural" (built-in), or mesh paths
+  std::vector<std::string> models = {"bunny00", "armadillo", "refined_elephant",
+                                     "anchor_dense"};  ///< names in
+                                                       ///< the models directory, "procedural" (built-in), or mesh paths
   std::vector<std::string> planners = {"poisson", "random", "sphere", "density", "curvature", "visibility", "pvs"};
   std::vector<int> views = {10, 20, 40};  ///< view budgets at which each run is evaluated
   std::vector<double> noise = {0.0, 0.5};
   std::vector<std::uint64_t> seeds = {1};
   std::filesystem::path models_dir = "data/models";  ///< where model names are looked up (NAME.off)
-  int depth = 7;                    ///< Poisson depth of the benchmark runs (kept modest: many runs)
+  int depth = 7;                                     ///< Poisson depth of the benchmark runs (kept modest: many runs)
   int max_iterations = 15;
   void validate() const;
 };

@@ -25,20 +25,21 @@ Pose looking_at(const Vec3& position, const Vec3& target) {
 
 }  // namespace
 
+void ScannableOptions::validate() const {
+  AUTOSCAN_REQUIRE(surface_views >= 0 && sphere_views >= 0 && surface_views + sphere_views > 0,
+                   "scannable_options: need at least one view");
+  AUTOSCAN_REQUIRE(resolution_divisor >= 1 && resolution_divisor <= 16,
+                   "scannable_options: resolution_divisor {} out of range [1, 16]", resolution_divisor);
+}
+
 ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,
                                        const ScannableOptions& o) {
   AUTOSCAN_REQUIRE(!truth.empty(), "scannable: empty truth mesh");
   AUTOSCAN_REQUIRE(std::isfinite(voxel) && voxel > 0.0, "scannable: voxel must be > 0 (got {})", voxel);
-  AUTOSCAN_REQUIRE(o.surface_views >= 0 && o.sphere_views >= 0 && o.surface_views + o.sphere_views > 0,
-                   "scannable: need at least one view");
-  AUTOSCAN_REQUIRE(o.resolution_divisor >= 1 && o.resolution_divisor <= 16,
-                   "scannable: resolution_divisor {} "
-                   "out of range [1, 16]",
-                   o.resolution_divisor);
+  o.validate();
   const Stopwatch clock;
   ScannerSpec s = spec;
   s.noise = NoiseSpec{};
-  s.noise.magnitude = 0.0;
   s.width = std::max(16, spec.width / o.resolution_divisor);
   s.height = std::max(16, spec.height / o.resolution_divisor);
   scanner::VirtualScannerOptions so;

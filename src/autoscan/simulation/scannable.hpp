@@ -26,6 +26,8 @@ struct ScannableOptions {
   int sphere_views = 42;       ///< views on the d_o sphere around the centre (icosphere vertices: 12, 42, 162)
   int resolution_divisor = 2;  ///< camera resolution / this (the reference needs spacing < τ, not detail)
   std::uint64_t seed = 7;      ///< which surface samples
+  /// Throws InputError for no views at all or a resolution_divisor outside [1, 16].
+  void validate() const;
 };
 
 struct ScannableReference {

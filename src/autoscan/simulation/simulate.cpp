@@ -26,11 +26,7 @@ void SimulateOptions::validate() const {
   rig.validate("rig");
   blind.validate();
   AUTOSCAN_REQUIRE(eval.tau > 0 && eval.samples > 0, "evaluation: tau and samples must be positive");
-  AUTOSCAN_REQUIRE(scannable_options.surface_views >= 0 && scannable_options.sphere_views >= 0 &&
-                       scannable_options.surface_views + scannable_options.sphere_views > 0,
-                   "scannable_options: need at least one view");
-  AUTOSCAN_REQUIRE(scannable_options.resolution_divisor >= 1 && scannable_options.resolution_divisor <= 16,
-                   "scannable_options: resolution_divisor must be in [1, 16]");
+  scannable_options.validate();
   for (int c : checkpoints) AUTOSCAN_REQUIRE(c > 0, "checkpoints: view budgets must be positive, got {}", c);
 }
 
