@@ -136,6 +136,9 @@ int main(int argc, char** argv) {
       const auto t0 = std::chrono::steady_clock::now();
       const auto res = poisson::reconstruct(pc, opt);
       show(v.tag, res.mesh, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      const auto& d = res.diagnostics;
+      std::printf("%-28s stages: octree %.2f s, splat %.2f s, system %.2f s, solve %.2f s, extract %.2f s\n", "",
+                  d.seconds_octree, d.seconds_splat, d.seconds_system, d.seconds_solve, d.seconds_extract);
       if (std::getenv("DUMP") && v.iters == 12 && v.screening == 4.0 && v.spn == 1.5)
         io::write_mesh(std::string(std::getenv("DUMP")) + "/ours.ply", res.mesh);
     }

@@ -526,3 +526,50 @@ TEST(Pipeline, DefaultStagesRunOneIterationAndRegisterTheNextScan) {
   }
   fs::remove_all(dir);
 }
+
+// Eq. 2 on noisy data: the raw points' scatter is the scanner's noise, and as the scans pile up the
+// raw cloud gets denser, h_k shrinks and f_s against it falls; the consolidated (WLOP-denoised)
+// points do not fall (SmoothnessPoints). On exact data `automatic` keeps the paper's raw points.
+TEST(Pipeline, SmoothnessIsMeasuredOnTheDenoisedPointsWhenTheScannerIsNoisy) {
+  SessionOptions o;
+  o.poisson.depth = 6;
+  o.confidence.iso.count = 1500;
+  o.confidence.k = 30;
+  o.consolidate.thinning.max_points = 8000;
+  const Vec3 from[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  auto scans = [&](int repeats, double noise) {
+    PointCloud c;
+    for (int r = 0; r < repeats; ++r)
+      for (int i = 0; i < 6; ++i) {
+        const auto s = sphere_scan(from[i], 2500, 100 * r + i, noise);
+        c.positions.insert(c.positions.end(), s.positions.begin(), s.positions.end());
+        c.normals.insert(c.normals.end(), s.normals.begin(), s.normals.end());
+      }
+    return c;
+  };
+  auto run = [&](const PointCloud& raw, session::SmoothnessPoints sp) {
+    SessionOptions oo = o;
+    oo.smoothness_points = sp;
+    return session::reconstruct_model(raw, oo, {});
+  };
+  const double noise = 0.004;  // 1.6 % of the radius
+  const PointCloud few = scans(1, noise), many = scans(4, noise);
+  const auto raw_few = run(few, session::SmoothnessPoints::raw);
+  const auto raw_many = run(many, session::SmoothnessPoints::raw);
+  const auto auto_few = run(few, session::SmoothnessPoints::automatic);
+  const auto auto_many = run(many, session::SmoothnessPoints::automatic);
+  EXPECT_EQ(raw_many.diagnostics["confidence"]["smoothness_points"], "raw");
+  EXPECT_EQ(auto_many.diagnostics["confidence"]["smoothness_points"], "consolidated");
+  // Against the raw points, four times the scans of the same noise lower f_s ...
+  EXPECT_LT(raw_many.mean_f_s, raw_few.mean_f_s - 0.02);
+  // ... against the denoised points it does not fall, and it is higher than the raw one.
+  EXPECT_GT(auto_many.mean_f_s, auto_few.mean_f_s - 0.01);
+  EXPECT_GT(auto_many.mean_f_s, raw_many.mean_f_s + 0.1);
+  // Exact data: WLOP does not run, `automatic` measures against the raw points (the paper's Q).
+  o.consolidate.wlop.noise_hint = 0.0;
+  const PointCloud exact = scans(1, 0.0);
+  const auto exact_auto = run(exact, session::SmoothnessPoints::automatic);
+  const auto exact_raw = run(exact, session::SmoothnessPoints::raw);
+  EXPECT_EQ(exact_auto.diagnostics["confidence"]["smoothness_points"], "raw");
+  EXPECT_EQ(exact_auto.mean_f, exact_raw.mean_f);
+}

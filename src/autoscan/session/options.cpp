@@ -127,6 +127,7 @@ void fields(SessionOptions& o, V& v) {
   v("consolidate", o.consolidate);
   v("poisson", o.poisson);
   v("confidence", o.confidence);
+  v("smoothness_points", o.smoothness_points);
   v("nbv", o.nbv);
   v("icp", o.icp);
   v("register_scans", o.register_scans);
@@ -151,6 +152,13 @@ struct EnumNames<consolidate::WlopMode> {
       {consolidate::WlopMode::automatic, "automatic"},
       {consolidate::WlopMode::on, "on"},
       {consolidate::WlopMode::off, "off"}};
+};
+template <>
+struct EnumNames<SmoothnessPoints> {
+  static constexpr std::pair<SmoothnessPoints, const char*> values[] = {
+      {SmoothnessPoints::automatic, "automatic"},
+      {SmoothnessPoints::raw, "raw"},
+      {SmoothnessPoints::consolidated, "consolidated"}};
 };
 template <>
 struct EnumNames<consolidate::Orientation> {
@@ -268,6 +276,12 @@ void SessionOptions::validate() const {
   AUTOSCAN_REQUIRE(max_iterations >= 1, "options: max_iterations must be >= 1 (got {})", max_iterations);
   AUTOSCAN_REQUIRE(max_views >= 0, "options: max_views must be >= 0 (got {})", max_views);
   nbv.validate();
+}
+
+const char* to_string(SmoothnessPoints s) {
+  for (const auto& [e, name] : EnumNames<SmoothnessPoints>::values)
+    if (e == s) return name;
+  return "?";
 }
 
 nlohmann::json to_json(const SessionOptions& o) {

@@ -39,11 +39,16 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
                               {"points", pr.diagnostics.points}, {"vertices", pr.mesh.vertices.size()},
                               {"faces", pr.mesh.faces.size()},   {"reference_gradient", r.reference_gradient}};
 
-  // §4.2: iso-points, f_g (Eq. 1), f_s (Eq. 2) against the raw points, f (Eq. 3).
+  // §4.2: iso-points, f_g (Eq. 1), f_s (Eq. 2) against Q (options.smoothness_points), f (Eq. 3).
   clock.reset();
   confidence::ConfidenceOptions co = options.confidence;
   co.progress = progress;
-  confidence::ConfidenceResult cr = confidence::assess_confidence(*pr.field, pr.mesh, raw, r.reference_gradient, co);
+  const bool against_consolidated =
+      options.smoothness_points == SmoothnessPoints::consolidated ||
+      (options.smoothness_points == SmoothnessPoints::automatic && cons.wlop.applied &&
+       r.consolidated.size() >= static_cast<std::size_t>(std::max(co.k, 1)));
+  const PointCloud& q = against_consolidated ? r.consolidated : raw;
+  confidence::ConfidenceResult cr = confidence::assess_confidence(*pr.field, pr.mesh, q, r.reference_gradient, co);
   r.seconds["confidence"] = clock.seconds();
   r.mesh = std::move(cr.mesh);
   r.iso_points = std::move(cr.iso_points);
@@ -53,7 +58,8 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   r.diagnostics["confidence"] = {{"iso_points", r.iso_points.size()},
                                  {"spacing", cr.spacing},
                                  {"reference_smoothness", cr.reference_smoothness},
-                                 {"max_projection_residual", cr.max_projection_residual}};
+                                 {"max_projection_residual", cr.max_projection_residual},
+                                 {"smoothness_points", against_consolidated ? "consolidated" : "raw"}};
   return r;
 }
 
