@@ -123,23 +123,38 @@ void match_sorted(std::size_t count, KeyFn&& key_of, const std::vector<std::uint
 }
 
 /// Keys dilated along each axis by offsets [lo, hi], clamped to [0, nmax]; sorted, unique.
+/// `cur` must be sorted. A shift along one axis keeps the (z, y, x) order of pack() keys, so each
+/// shifted copy is sorted and one axis is a merge of hi - lo + 1 sorted lists (no sort needed).
 std::vector<std::uint64_t> dilate(std::vector<std::uint64_t> cur, int lo, int hi, int nmax) {
   const int w = hi - lo + 1;
+  AUTOSCAN_CHECK(w >= 1 && w <= 8, "poisson: dilation width {} out of range", w);
   for (int axis = 0; axis < 3; ++axis) {
-    std::vector<std::uint64_t> out(cur.size() * w);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cur.size(), 4096), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        int c[3] = {key_x(cur[i]), key_y(cur[i]), key_z(cur[i])};
-        const int c0 = c[axis];
-        for (int o = lo; o <= hi; ++o) {
-          c[axis] = c0 + o;
-          out[i * w + (o - lo)] = (c[axis] >= 0 && c[axis] <= nmax) ? pack(c[0], c[1], c[2]) : kNoKey;
-        }
+    const int sh = axis * detail::kKeyBits;
+    std::size_t pos[8] = {};
+    std::vector<std::uint64_t> out;
+    out.reserve(cur.size() * 2);
+    // Head of list o (the shifted key of cur[pos[o]], skipping keys shifted off the grid).
+    auto head = [&](int o) -> std::uint64_t {
+      const int off = lo + o;
+      while (pos[o] < cur.size()) {
+        const int c = static_cast<int>((cur[pos[o]] >> sh) & detail::kKeyMask) + off;
+        if (c >= 0 && c <= nmax) return off >= 0 ? cur[pos[o]] + (std::uint64_t(off) << sh)
+                                                 : cur[pos[o]] - (std::uint64_t(-off) << sh);
+        ++pos[o];
       }
-    });
-    tbb::parallel_sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    if (!out.empty() && out.back() == kNoKey) out.pop_back();
+      return kNoKey;
+    };
+    std::uint64_t h[8];
+    for (int o = 0; o < w; ++o) h[o] = head(o);
+    while (true) {
+      int best = 0;
+      for (int o = 1; o < w; ++o)
+        if (h[o] < h[best]) best = o;
+      if (h[best] == kNoKey) break;
+      if (out.empty() || out.back() != h[best]) out.push_back(h[best]);
+      ++pos[best];
+      h[best] = head(best);
+    }
     cur.swap(out);
   }
   return cur;
@@ -216,8 +231,7 @@ struct Samples {
   std::vector<std::int8_t> depth;    ///< finest splat depth s_p (the octree is refined to it)
   std::vector<double> frac;          ///< share of the sample splatted at s_p (the rest at s_p - 1)
   std::vector<std::int8_t> refine;   ///< depth the octree is refined to around the sample (>= s_p)
-  std::vector<std::uint64_t> code;   ///< Morton code at depth D
-  std::vector<std::uint32_t> order;  ///< sample indices in Morton order
+  std::vector<std::uint64_t> code;   ///< Morton code at depth D (the samples are sorted by it)
 };
 
 struct Level {
@@ -282,14 +296,17 @@ class Solver {
 
 void Solver::estimate_density() {
   const std::size_t N = s_.u.size();
+  // The samples are stored in Morton order (Solver::run): a cell's samples are consecutive at every
+  // depth, so the kernel sums below read contiguous runs.
+  const std::vector<std::uint64_t>& scode = s_.code;
   // Occupied cells per depth (Morton prefixes are runs).
   density_depth_ = 1;
   for (int d = 1; d <= D_; ++d) {
     const int shift = 3 * (D_ - d);
     std::size_t cells = 0;
     std::uint64_t prev = kNoKey;
-    for (std::uint32_t i : s_.order) {
-      const std::uint64_t c = s_.code[i] >> shift;
+    for (std::uint64_t c : scode) {
+      c >>= shift;
       cells += (c != prev);
       prev = c;
     }
@@ -301,7 +318,7 @@ void Solver::estimate_density() {
   std::vector<std::uint64_t> run_code;
   std::vector<std::uint32_t> run_begin;
   for (std::size_t j = 0; j < N; ++j) {
-    const std::uint64_t c = s_.code[s_.order[j]] >> shift;
+    const std::uint64_t c = scode[j] >> shift;
     if (run_code.empty() || run_code.back() != c) {
       run_code.push_back(c);
       run_begin.push_back(static_cast<std::uint32_t>(j));
@@ -310,6 +327,14 @@ void Solver::estimate_density() {
   run_begin.push_back(static_cast<std::uint32_t>(N));
   KeyIndex runs;
   runs.build(run_code);
+  const std::size_t ncells = run_code.size();
+  std::vector<std::uint64_t> cell_keys(ncells);  // pack() key of each run's cell
+  tbb::parallel_for(std::size_t{0}, ncells, [&](std::size_t c) {
+    const Vec3& u = s_.u[run_begin[c]];
+    int x[3];
+    for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(u[a] * nk), 0, nk - 1);
+    cell_keys[c] = pack(x[0], x[1], x[2]);
+  });
   // Area density at each sample: sum_q w_q phi(|u_p - u_q| / r) / (pi r^2 / 3), phi(t) = (1-t^2)^2,
   // whose integral over a plane through the centre is pi r^2 / 3; neighbours q facing away
   // (n_p . n_q <= 0) are on the other side of a thin part and do not count.
@@ -320,81 +345,78 @@ void Solver::estimate_density() {
   s_.refine.assign(N, 0);
   const double spn = opt_.samples_per_node;
   const int min_depth = std::min(opt_.full_depth, D_);
-  // Kernel average over the same-side neighbours within r: sum_q w_q phi_q f(q) (and sum of weights).
-  auto neighbourhood = [&](std::size_t i, auto&& f, double* wsum) {
-    const Vec3& u = s_.u[i];
-    int c[3];
-    for (int a = 0; a < 3; ++a) c[a] = std::clamp(static_cast<int>(u[a] * nk), 0, nk - 1);
-    double sum = 0.0, ws = 0.0;
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
-          if (x < 0 || y < 0 || z < 0 || x >= nk || y >= nk || z >= nk) continue;
-          const int ri = runs.find(morton(x, y, z));
-          if (ri < 0) continue;
-          for (std::uint32_t j = run_begin[ri]; j < run_begin[ri + 1]; ++j) {
-            const std::uint32_t q = s_.order[j];
-            const double d2 = (s_.u[q] - u).squaredNorm();
-            // Only the same side of a thin sheet counts (opposite normals: the other side).
-            if (d2 < r2 && s_.n[q].dot(s_.n[i]) > 0.0) {
-              const double t = 1.0 - d2 / r2;
-              sum += s_.w[q] * t * t * f(q);
-              ws += s_.w[q] * t * t;
+  // Kernel sums cell by cell: the candidates of every sample of cell c are the runs of the 27 cells
+  // around c. visit(j, sum of w_q phi_q f(q), sum of w_q phi_q) for every sorted sample j.
+  auto kernel_sums = [&](auto&& f, auto&& visit) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ncells, 64), [&](const auto& rg) {
+      std::pair<std::uint32_t, std::uint32_t> nb[27];
+      for (std::size_t c = rg.begin(); c != rg.end(); ++c) {
+        const std::uint64_t ck = cell_keys[c];
+        const int cx = key_x(ck), cy = key_y(ck), cz = key_z(ck);
+        int m = 0;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int x = cx + dx, y = cy + dy, z = cz + dz;
+              if (x < 0 || y < 0 || z < 0 || x >= nk || y >= nk || z >= nk) continue;
+              const int ri = runs.find(morton(x, y, z));
+              if (ri >= 0) nb[m++] = {run_begin[ri], run_begin[ri + 1]};
             }
-          }
+        for (std::uint32_t j = run_begin[c]; j < run_begin[c + 1]; ++j) {
+          const Vec3 u = s_.u[j], n = s_.n[j];
+          double sum = 0.0, ws = 0.0;
+          for (int b = 0; b < m; ++b)
+            for (std::uint32_t q = nb[b].first; q < nb[b].second; ++q) {
+              const double d2 = (s_.u[q] - u).squaredNorm();
+              // Only the same side of a thin sheet counts (opposite normals: the other side).
+              if (d2 < r2 && s_.n[q].dot(n) > 0.0) {
+                const double t = 1.0 - d2 / r2;
+                const double wt = s_.w[q] * t * t;
+                sum += wt * f(q);
+                ws += wt;
+              }
+            }
+          visit(j, sum, ws);
         }
-    if (wsum) *wsum = ws;
-    return sum;
-  };
-  std::vector<double> logrho(N);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 1024), [&](const auto& rg) {
-    for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
-      const double rho = neighbourhood(
-                             i, [](std::uint32_t) { return 1.0; }, nullptr) /
-                         norm;  // > 0 (itself)
-      s_.area[i] = 1.0 / rho;
-      logrho[i] = std::log2(rho);
-    }
-  });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, N, 1024), [&](const auto& rg) {
-    for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
-      // The splat depth follows the density averaged once more over the kernel, so that it changes
-      // along smooth fronts rather than from sample to sample (a patchy octree makes bumps).
-      double ws = 0.0;
-      const double lr = neighbourhood(
-                            i, [&](std::uint32_t q) { return logrho[q]; }, &ws) /
-                        ws;
-      // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at floor(sd), so
-      // that the kernel width varies smoothly with the density.
-      const double sd = 0.5 * (lr - std::log2(spn));
-      // The octree is refined around the sample down to its finest splat depth.
-      if (sd >= D_) {
-        s_.depth[i] = static_cast<std::int8_t>(D_);
-        s_.frac[i] = 1.0;
-        s_.refine[i] = static_cast<std::int8_t>(D_);
-      } else if (sd < min_depth) {
-        s_.depth[i] = static_cast<std::int8_t>(min_depth);
-        s_.frac[i] = 1.0;
-        s_.refine[i] = s_.depth[i];
-      } else {
-        const int s0 = static_cast<int>(std::floor(sd));
-        const double t = sd - s0;
-        s_.depth[i] = static_cast<std::int8_t>(t > 0.0 ? s0 + 1 : s0);
-        s_.frac[i] = t > 0.0 ? t : 1.0;
-        s_.refine[i] = s_.depth[i];
       }
-    }
-  });
+    });
+  };
+  std::vector<double> logrho(N);  // sorted order
+  kernel_sums([](std::uint32_t) { return 1.0; },
+              [&](std::uint32_t j, double sum, double) {
+                const double rho = sum / norm;  // > 0 (itself)
+                s_.area[j] = 1.0 / rho;
+                logrho[j] = std::log2(rho);
+              });
+  kernel_sums([&](std::uint32_t q) { return logrho[q]; },
+              [&](std::uint32_t j, double sum, double ws) {
+                const std::uint32_t i = j;
+                // The splat depth follows the density averaged once more over the kernel, so that it
+                // changes along smooth fronts rather than from sample to sample (a patchy octree makes
+                // bumps).
+                const double lr = sum / ws;
+                // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at
+                // floor(sd), so that the kernel width varies smoothly with the density.
+                const double sd = 0.5 * (lr - std::log2(spn));
+                // The octree is refined around the sample down to its finest splat depth.
+                if (sd >= D_) {
+                  s_.depth[i] = static_cast<std::int8_t>(D_);
+                  s_.frac[i] = 1.0;
+                  s_.refine[i] = static_cast<std::int8_t>(D_);
+                } else if (sd < min_depth) {
+                  s_.depth[i] = static_cast<std::int8_t>(min_depth);
+                  s_.frac[i] = 1.0;
+                  s_.refine[i] = s_.depth[i];
+                } else {
+                  const int s0 = static_cast<int>(std::floor(sd));
+                  const double t = sd - s0;
+                  s_.depth[i] = static_cast<std::int8_t>(t > 0.0 ? s0 + 1 : s0);
+                  s_.frac[i] = t > 0.0 ? t : 1.0;
+                  s_.refine[i] = s_.depth[i];
+                }
+              });
   // Density output grid: corners of the depth-k cells that hold samples, trilinear splat of w_p
   // normalised by the mean plane integral of the kernel (2/3 h^2): samples per unit area.
-  std::vector<std::uint64_t> cell_keys(run_code.size());
-  for (std::size_t c = 0; c < run_code.size(); ++c) {
-    const Vec3& u = s_.u[s_.order[run_begin[c]]];
-    int x[3];
-    for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(u[a] * nk), 0, nk - 1);
-    cell_keys[c] = pack(x[0], x[1], x[2]);
-  }
   std::vector<std::uint64_t> corner_keys;
   corner_keys.reserve(cell_keys.size() * 8);
   for (std::uint64_t ck : cell_keys)
@@ -422,12 +444,11 @@ void Solver::estimate_density() {
           idx[q] =
               density_.index.find(pack(key_x(ck) + (q & 1), key_y(ck) + ((q >> 1) & 1), key_z(ck) + ((q >> 2) & 1)));
         for (std::uint32_t j = run_begin[c]; j < run_begin[c + 1]; ++j) {
-          const std::uint32_t p = s_.order[j];
           double t[3];
-          for (int a = 0; a < 3; ++a) t[a] = s_.u[p][a] * nk - key_x(ck >> (a * detail::kKeyBits));
+          for (int a = 0; a < 3; ++a) t[a] = s_.u[j][a] * nk - key_x(ck >> (a * detail::kKeyBits));
           for (int q = 0; q < 8; ++q) {
             const double wq = ((q & 1) ? t[0] : 1 - t[0]) * ((q & 2) ? t[1] : 1 - t[1]) * ((q & 4) ? t[2] : 1 - t[2]);
-            density_.value[idx[q]] += s_.w[p] * wq * dnorm;
+            density_.value[idx[q]] += s_.w[j] * wq * dnorm;
           }
         }
       }
@@ -454,7 +475,7 @@ void Solver::build_level_cells(Level& L) {
       }
   });
   std::vector<std::uint64_t> cell_code;
-  for (std::uint32_t i : s_.order) {
+  for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(s_.u.size()); ++i) {
     if (!complete[i]) continue;
     const std::uint64_t c = s_.code[i] >> shift;
     if (cell_code.empty() || cell_code.back() != c) {
@@ -502,9 +523,16 @@ void Solver::build_levels() {
       L.act.resize(L.keys.size());
       std::iota(L.act.begin(), L.act.end(), 0);
     } else {
+      // Cells holding a sample refined to depth >= d (samples are in Morton order: a cell's samples
+      // are consecutive, so one key per run).
       std::vector<std::uint64_t> cells;
+      const int shift = 3 * (D_ - d);
+      std::uint64_t prev = kNoKey;
       for (std::size_t i = 0; i < s_.u.size(); ++i) {
         if (s_.refine[i] < d) continue;
+        const std::uint64_t c = s_.code[i] >> shift;
+        if (c == prev) continue;
+        prev = c;
         int x[3];
         for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(std::floor(s_.u[i][a] * L.n)), 0, L.n - 1);
         cells.push_back(pack(x[0], x[1], x[2]));
@@ -824,11 +852,22 @@ std::shared_ptr<FieldData> Solver::run(const Vec3& origin, double width) {
     for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(std::floor(s_.u[i][a] * nD)), 0, nD - 1);
     s_.code[i] = morton(x[0], x[1], x[2]);
   });
-  s_.order.resize(N);
-  std::iota(s_.order.begin(), s_.order.end(), 0u);
-  tbb::parallel_sort(s_.order.begin(), s_.order.end(), [&](std::uint32_t a, std::uint32_t b) {
+  std::vector<std::uint32_t> order(N);
+  std::iota(order.begin(), order.end(), 0u);
+  tbb::parallel_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
     return s_.code[a] != s_.code[b] ? s_.code[a] < s_.code[b] : a < b;
   });
+  // Store the samples in Morton order: every later pass (density, splatting, screening per level)
+  // walks them cell by cell, and reading them through the permutation was a cache miss per sample.
+  auto permute = [&](auto& v) {
+    std::remove_reference_t<decltype(v)> out(v.size());
+    tbb::parallel_for(std::size_t{0}, N, [&](std::size_t j) { out[j] = v[order[j]]; });
+    v.swap(out);
+  };
+  permute(s_.u);
+  permute(s_.n);
+  permute(s_.w);
+  permute(s_.code);
   Progress prog(cb_, "poisson: octree");
   estimate_density();
   prog.report(0.3);
