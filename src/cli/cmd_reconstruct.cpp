@@ -57,6 +57,9 @@ AUTOSCAN_CLI_COMMAND(reconstruct, 30, [](CLI::App& root, autoscan::cli::Globals&
   sub->add_option("--samples-per-node", o->poisson.samples_per_node,
                   "Samples per cell cross-section that decide each sample's splat depth")
       ->capture_default_str();
+  sub->add_option("--normal-smoothing", o->poisson.normal_smoothing,
+                  "Weight a of the (a, 1-2a, a) filter on the splatted normal field (0 = plain trilinear splat)")
+      ->capture_default_str();
   sub->add_option("--weight", o->poisson.weight_scalar, "Per-point weight column of the cloud (default: all 1)");
   sub->add_option("--trim", o->poisson.trim, "Drop this share [0,1) of the vertices with the lowest density")
       ->capture_default_str();

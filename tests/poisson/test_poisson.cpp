@@ -194,7 +194,7 @@ TEST(Poisson, ReferenceGradientIsCalibrated) {
       for (const auto& v : g) m += v.norm();
       m /= g.size();
       EXPECT_NEAR(m / res.field->reference_gradient(), 1.0, 0.15) << "depth " << depth << " r " << r;
-      EXPECT_NEAR(res.field->reference_gradient() * res.field->finest_cell_width(), 0.54, 1e-12);
+      EXPECT_NEAR(res.field->reference_gradient() * res.field->finest_cell_width(), 0.46, 1e-12);
     }
   }
 }

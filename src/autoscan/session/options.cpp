@@ -62,6 +62,7 @@ void fields(poisson::PoissonOptions& o, V& v) {
   v("depth", o.depth);
   v("screening", o.screening);
   v("samples_per_node", o.samples_per_node);
+  v("normal_smoothing", o.normal_smoothing);
   v("scale", o.scale);
   v("full_depth", o.full_depth);
   v("fine_iterations", o.fine_iterations);
