@@ -4,7 +4,7 @@
 // the child) and its time are measured alone; both meshes are then compared with the true mesh
 // (autoscan::eval: Chamfer = (accuracy mean + completeness mean) / 2, F-score at 0.5 % of the
 // diagonal). Usage: compare_poisson_open3d [--quick] (quick: 100k points, depth 8, bunny only), or
-// compare_poisson_open3d --diagnose [MODEL [POINTS [DEPTH [SCREENING:SPN[:REFINE] ...]]]] for the
+// compare_poisson_open3d --diagnose [MODEL [POINTS [DEPTH [SCREENING:SPN[:REFINE[:SMOOTHING]] ...]]]] for the
 // distance percentiles of both meshes and of our variants (NO_PEER=1 skips Open3D, DUMP=DIR writes
 // the meshes).
 #include <open3d/geometry/PointCloud.h>
@@ -113,6 +113,7 @@ int main(int argc, char** argv) {
       int iters;
       double screening, spn;
       int refine = 2;
+      double smoothing = poisson::PoissonOptions{}.normal_smoothing;
     };
     std::vector<Variant> variants = {Variant{"ours default", 12, 4.0, 1.5}, Variant{"ours iters 60", 60, 4.0, 1.5},
                                      Variant{"ours screening 16", 12, 16.0, 1.5}, Variant{"ours spn 4", 12, 4.0, 4.0}};
@@ -122,8 +123,11 @@ int main(int argc, char** argv) {
         const std::string spec = argv[a];
         const auto c = spec.find(':');
         const auto c2 = spec.find(':', c + 1);  // optional third field: vertex refinement steps
+        const auto c3 = c2 == std::string::npos ? c2 : spec.find(':', c2 + 1);  // fourth: normal smoothing
         variants.push_back({argv[a], 12, std::stod(spec.substr(0, c)), std::stod(spec.substr(c + 1, c2 - c - 1)),
-                            c2 == std::string::npos ? 2 : std::stoi(spec.substr(c2 + 1))});
+                            c2 == std::string::npos ? 2 : std::stoi(spec.substr(c2 + 1, c3 - c2 - 1)),
+                            c3 == std::string::npos ? poisson::PoissonOptions{}.normal_smoothing
+                                                    : std::stod(spec.substr(c3 + 1))});
       }
     }
     for (const Variant& v : variants) {
@@ -133,6 +137,7 @@ int main(int argc, char** argv) {
       opt.screening = v.screening;
       opt.samples_per_node = v.spn;
       opt.vertex_refinement = v.refine;
+      opt.normal_smoothing = v.smoothing;
       const auto t0 = std::chrono::steady_clock::now();
       const auto res = poisson::reconstruct(pc, opt);
       show(v.tag, res.mesh, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
