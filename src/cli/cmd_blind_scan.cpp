@@ -46,7 +46,7 @@ AUTOSCAN_CLI_COMMAND(blind_scan, 21, [](CLI::App& root, autoscan::cli::Globals& 
       ->delimiter(',');
   sub->add_option("--distance", o->blind.distance, "Distance from the object's centre (default: d_o = (near+far)/2)");
   sub->add_option("--scanner", o->scanner, "Scanner spec (JSON: near, far, fov_deg, width, height, baseline, ...)");
-  sub->add_option("--rig", o->rig, "Robot rig (JSON: kind free|turntable_arm|view_sphere, ...); default free");
+  sub->add_option("--rig", o->rig, "Robot rig: a rig JSON file, or a kind: free (default), turntable_arm, view_sphere");
   sub->add_option("--noise", o->noise, "Noise magnitude in [0, 1] (overrides the scanner file's)");
   sub->add_option("--seed", o->seed, "Seed of the noise")->capture_default_str();
   sub->add_flag("--normalize", o->normalize, "Scale the mesh to bounding-box diagonal 1, centred at the origin");
@@ -61,7 +61,7 @@ AUTOSCAN_CLI_COMMAND(blind_scan, 21, [](CLI::App& root, autoscan::cli::Globals& 
     const ScannerSpec spec = cli::scanner_from_args(o->scanner, o->noise);
     scanner::VirtualScannerOptions opt;
     if (!o->rig.empty()) {
-      opt.rig = cli::rig_from_file(o->rig);
+      opt.rig = cli::load_rig(o->rig);
     }
 
     TriangleMesh mesh = io::read_mesh(o->mesh);

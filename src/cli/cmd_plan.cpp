@@ -1,4 +1,4 @@
-// autoscan plan --cloud FILE --out VIEWS.json [--scanner FILE] [--from POSE] [--grid N] [--cells N]
+// autoscan plan --cloud FILE --out VIEWS.json [--scanner FILE] [--rig RIG] [--from POSE] [--grid N] [--cells N]
 //               [--max-views N] [--min-score G] [--slice-png FILE] [--field-out FILE.nrrd]
 // Paper §4-5 for one iteration: screened Poisson reconstruction of the oriented cloud, confidence map
 // (iso-points with f), then the next-best views (viewing vector field Eq. 4, selection §5.2, aiming
@@ -12,11 +12,12 @@
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/nbv/nbv.hpp"
 #include "command.hpp"
+#include "scanner_args.hpp"
 
 namespace {
 
 struct PlanCli {
-  std::string cloud, out, scanner, from, slice_png, field_out;
+  std::string cloud, out, scanner, rig, from, slice_png, field_out;
   int grid = 100;
   int cells = 10;
   int max_views = 10;
@@ -34,6 +35,7 @@ AUTOSCAN_CLI_COMMAND(plan, 70, [](CLI::App& root, autoscan::cli::Globals& g) {
       ->required();
   sub->add_option("--out", o->out, "Output views (.json): {\"views\":[...],\"path_length\":L}")->required();
   sub->add_option("--scanner", o->scanner, "Scanner JSON (near/far working distance, field of view, ...)");
+  sub->add_option("--rig", o->rig, "Rig JSON file, or a rig kind: free (default), turntable_arm, view_sphere");
   sub->add_option("--from", o->from, "Current scanner pose: px,py,pz,dx,dy,dz or a pose JSON object");
   sub->add_option("--grid", o->grid, "Voxels per axis of the search space (paper: 100)")->capture_default_str();
   sub->add_option("--cells", o->cells, "Cells per axis for the per-cell maxima (§5.2)")->capture_default_str();
@@ -56,6 +58,7 @@ AUTOSCAN_CLI_COMMAND(plan, 70, [](CLI::App& root, autoscan::cli::Globals& g) {
       spec = load_scanner(o->scanner);
     }
     spec.validate(o->scanner.empty() ? "scanner" : o->scanner);
+    const Rig rig = o->rig.empty() ? Rig{} : cli::load_rig(o->rig);
     std::optional<Pose> from;
     if (!o->from.empty()) from = parse_pose(o->from, "--from");
     nbv::NbvOptions no;
@@ -78,7 +81,7 @@ AUTOSCAN_CLI_COMMAND(plan, 70, [](CLI::App& root, autoscan::cli::Globals& g) {
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: {}", o->cloud, e.what()));  // name the file
     }
-    const nbv::NbvPlanner planner(a.reconstruction.mesh, spec, Rig{}, no);
+    const nbv::NbvPlanner planner(a.reconstruction.mesh, spec, rig, no);
     const nbv::PlanResult r = planner.plan(a.confidence.iso_points, from, a.reconstruction.field.get(), g.progress());
     for (const auto& m : r.diagnostics.messages) log::info("plan: {}", m);
 

@@ -40,7 +40,7 @@ AUTOSCAN_CLI_COMMAND(scan, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
   sub->add_option("--pose", o->pose, "Scanner pose: px,py,pz,dx,dy,dz (up +Z) or a JSON pose object")->required();
   sub->add_option("--out", o->out, "Output point cloud (.ply): points, normals, scan_id, sensor_x/y/z")->required();
   sub->add_option("--scanner", o->scanner, "Scanner spec (JSON: near, far, fov_deg, width, height, baseline, ...)");
-  sub->add_option("--rig", o->rig, "Robot rig (JSON: kind free|turntable_arm|view_sphere, ...); default free");
+  sub->add_option("--rig", o->rig, "Robot rig: a rig JSON file, or a kind: free (default), turntable_arm, view_sphere");
   sub->add_option("--noise", o->noise, "Noise magnitude in [0, 1] (overrides the scanner file's)");
   sub->add_option("--seed", o->seed, "Seed of the noise")->capture_default_str();
   sub->add_option("--scan-id", o->scan_id, "Scan id stored with every point (also selects the noise stream)")
@@ -56,7 +56,7 @@ AUTOSCAN_CLI_COMMAND(scan, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
     const ScannerSpec spec = cli::scanner_from_args(o->scanner, o->noise);
     scanner::VirtualScannerOptions opt;
     if (!o->rig.empty()) {
-      opt.rig = cli::rig_from_file(o->rig);
+      opt.rig = cli::load_rig(o->rig);
     }
     const Pose pose = parse_pose(o->pose, "--pose");
 

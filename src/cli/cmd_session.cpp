@@ -10,6 +10,7 @@
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/session/session.hpp"
 #include "command.hpp"
+#include "scanner_args.hpp"
 
 namespace {
 
@@ -38,16 +39,6 @@ nlohmann::json parse_json_file(const std::string& path, const std::string& optio
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(fmt::format("{}: not valid JSON ({}): {}", path, option, e.what()));
   }
-}
-
-Rig load_rig(const std::string& arg) {
-  std::error_code ec;
-  if (fs::is_regular_file(arg, ec)) return rig_from_json(parse_json_file(arg, "--rig"), arg);
-  AUTOSCAN_REQUIRE(arg.find('/') == std::string::npos && arg.find('.') == std::string::npos,
-                   "{}: no such rig file (--rig)", arg);
-  Rig r;
-  r.kind = Rig::parse_kind(arg);
-  return r;
 }
 
 void require_session_dir(const std::string& dir) {
@@ -79,7 +70,7 @@ AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) 
     ScannerSpec scanner;
     if (!init->scanner.empty()) scanner = scanner_from_json(parse_json_file(init->scanner, "--scanner"), init->scanner);
     Rig rig;
-    if (!init->rig.empty()) rig = load_rig(init->rig);
+    if (!init->rig.empty()) rig = cli::load_rig(init->rig);
     session::SessionOptions o;
     if (!init->config.empty())
       o = session::session_options_from_json(parse_json_file(init->config, "--config"), {}, init->config);

@@ -1,5 +1,6 @@
 #pragma once
 // Options shared by the commands that run the virtual scanner (scan, blind-scan).
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -23,12 +24,19 @@ inline ScannerSpec scanner_from_args(const std::string& scanner_path, double noi
   return spec;
 }
 
-/// The rig from --rig FILE (JSON).
-inline Rig rig_from_file(const std::string& path) {
-  require_input_file(path, "--rig");
-  const auto j = nlohmann::json::parse(read_text_file(path), nullptr, false);
-  AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON (--rig)", path);
-  return rig_from_json(j, path);
+/// The rig from --rig: a rig JSON file, or a rig kind (free, turntable_arm, view_sphere).
+inline Rig load_rig(const std::string& arg) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(arg, ec)) {
+    const auto j = nlohmann::json::parse(read_text_file(arg), nullptr, false);
+    AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON (--rig)", arg);
+    return rig_from_json(j, arg);
+  }
+  AUTOSCAN_REQUIRE(arg.find('/') == std::string::npos && arg.find('.') == std::string::npos,
+                   "{}: no such rig file (--rig)", arg);
+  Rig r;
+  r.kind = Rig::parse_kind(arg);
+  return r;
 }
 
 }  // namespace autoscan::cli

@@ -8,6 +8,8 @@
 
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/core/pose.hpp"
+#include "autoscan/core/rig.hpp"
 #include "cli_util.hpp"
 
 namespace {
@@ -61,6 +63,26 @@ TEST(CliPlan, WritesViewsSliceAndFieldForACaplessSphere) {
   EXPECT_TRUE(std::filesystem::exists(png));
   EXPECT_TRUE(std::filesystem::exists(nrrd));
   EXPECT_EQ(std::filesystem::file_size(nrrd) > 32u * 32 * 32 * 4, true);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CliPlan, ViewsRespectTheRig) {
+  const auto dir = fresh_dir("plan_rig");
+  const auto cloud = write_capless_sphere(dir);
+  const auto out = dir / "views.json";
+  auto r = run_cli("plan --cloud " + cloud.string() + " --out " + out.string() +
+                   " --grid 32 --cells 8 --depth 6 --iso-count 2000 --rig turntable_arm");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(out);
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_GE(j["views"].size(), 1u);
+  autoscan::Rig rig;
+  rig.kind = autoscan::Rig::parse_kind("turntable_arm");
+  for (const auto& v : j["views"]) EXPECT_TRUE(rig.reachable(autoscan::pose_from_json(v)));
+  r = run_cli("plan --cloud " + cloud.string() + " --out " + (dir / "v2.json").string() + " --rig gantry");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("gantry"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "v2.json"));
   std::filesystem::remove_all(dir);
 }
 
