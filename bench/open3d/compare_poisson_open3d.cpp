@@ -124,10 +124,10 @@ int main(int argc, char** argv) {
         const auto c = spec.find(':');
         const auto c2 = spec.find(':', c + 1);  // optional third field: vertex refinement steps
         const auto c3 = c2 == std::string::npos ? c2 : spec.find(':', c2 + 1);  // fourth: normal smoothing
-        variants.push_back({argv[a], 12, std::stod(spec.substr(0, c)), std::stod(spec.substr(c + 1, c2 - c - 1)),
-                            c2 == std::string::npos ? 2 : std::stoi(spec.substr(c2 + 1, c3 - c2 - 1)),
-                            c3 == std::string::npos ? poisson::PoissonOptions{}.normal_smoothing
-                                                    : std::stod(spec.substr(c3 + 1))});
+        variants.push_back(
+            {argv[a], 12, std::stod(spec.substr(0, c)), std::stod(spec.substr(c + 1, c2 - c - 1)),
+             c2 == std::string::npos ? 2 : std::stoi(spec.substr(c2 + 1, c3 - c2 - 1)),
+             c3 == std::string::npos ? poisson::PoissonOptions{}.normal_smoothing : std::stod(spec.substr(c3 + 1))});
       }
     }
     for (const Variant& v : variants) {

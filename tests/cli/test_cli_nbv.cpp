@@ -7,9 +7,9 @@
 #include <nlohmann/json.hpp>
 
 #include "autoscan/core/point_cloud.hpp"
-#include "autoscan/io/mesh_io.hpp"
 #include "autoscan/core/pose.hpp"
 #include "autoscan/core/rig.hpp"
+#include "autoscan/io/mesh_io.hpp"
 #include "cli_util.hpp"
 
 namespace {

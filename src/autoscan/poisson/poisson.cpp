@@ -139,8 +139,8 @@ std::vector<std::uint64_t> dilate(std::vector<std::uint64_t> cur, int lo, int hi
       const int off = lo + o;
       while (pos[o] < cur.size()) {
         const int c = static_cast<int>((cur[pos[o]] >> sh) & detail::kKeyMask) + off;
-        if (c >= 0 && c <= nmax) return off >= 0 ? cur[pos[o]] + (std::uint64_t(off) << sh)
-                                                 : cur[pos[o]] - (std::uint64_t(-off) << sh);
+        if (c >= 0 && c <= nmax)
+          return off >= 0 ? cur[pos[o]] + (std::uint64_t(off) << sh) : cur[pos[o]] - (std::uint64_t(-off) << sh);
         ++pos[o];
       }
       return kNoKey;
@@ -225,14 +225,14 @@ void prolong(const KeyIndex& cindex, const std::vector<T>& cval, const std::vect
 // ---- the solver --------------------------------------------------------------------------------
 
 struct Samples {
-  std::vector<Vec3> u;               ///< unit-cube positions
-  std::vector<Vec3> n;               ///< outward unit normals
-  std::vector<double> w;             ///< user weights
-  std::vector<double> area;          ///< a_p = 1 / density
-  std::vector<std::int8_t> depth;    ///< finest splat depth s_p (the octree is refined to it)
-  std::vector<double> frac;          ///< share of the sample splatted at s_p (the rest at s_p - 1)
-  std::vector<std::int8_t> refine;   ///< depth the octree is refined to around the sample (>= s_p)
-  std::vector<std::uint64_t> code;   ///< Morton code at depth D (the samples are sorted by it)
+  std::vector<Vec3> u;              ///< unit-cube positions
+  std::vector<Vec3> n;              ///< outward unit normals
+  std::vector<double> w;            ///< user weights
+  std::vector<double> area;         ///< a_p = 1 / density
+  std::vector<std::int8_t> depth;   ///< finest splat depth s_p (the octree is refined to it)
+  std::vector<double> frac;         ///< share of the sample splatted at s_p (the rest at s_p - 1)
+  std::vector<std::int8_t> refine;  ///< depth the octree is refined to around the sample (>= s_p)
+  std::vector<std::uint64_t> code;  ///< Morton code at depth D (the samples are sorted by it)
 };
 
 struct Level {

@@ -37,14 +37,14 @@ struct SessionOptions {
     consolidate.thinning.max_points = 200000;
     consolidate.wlop.iterations = 10;
   }
-  std::string planner = "poisson";                           ///< planners::make_planner name
-  nlohmann::json planner_params = nlohmann::json::object();  ///< planner-specific settings
-  consolidate::ConsolidateOptions consolidate;               ///< §4.1 thinning, outliers, WLOP, normals
-  poisson::PoissonOptions poisson;                           ///< §4.1 screened Poisson (depth, screening...)
-  confidence::ConfidenceOptions confidence;                  ///< §4.2, Eq. 1-3 (K = 100)
+  std::string planner = "poisson";                                   ///< planners::make_planner name
+  nlohmann::json planner_params = nlohmann::json::object();          ///< planner-specific settings
+  consolidate::ConsolidateOptions consolidate;                       ///< §4.1 thinning, outliers, WLOP, normals
+  poisson::PoissonOptions poisson;                                   ///< §4.1 screened Poisson (depth, screening...)
+  confidence::ConfidenceOptions confidence;                          ///< §4.2, Eq. 1-3 (K = 100)
   SmoothnessPoints smoothness_points = SmoothnessPoints::automatic;  ///< Q of Eq. 2 (see SmoothnessPoints)
-  nbv::NbvOptions nbv;                                       ///< §5.1-5.2, Eq. 4-5 (100³ grid, σ = 25°)
-  registration::IcpOptions icp;                              ///< §5.3 weighted ICP
+  nbv::NbvOptions nbv;                                               ///< §5.1-5.2, Eq. 4-5 (100³ grid, σ = 25°)
+  registration::IcpOptions icp;                                      ///< §5.3 weighted ICP
   bool register_scans = true;  ///< §5.3: register each scan to the model (weighted ICP) once a model exists
   /// §5.3 registration acceptance. ICP's correction is applied only when it lowers the residual RMS by
   /// at least this share: on noisy data a correction that does not fit better is the scan sliding

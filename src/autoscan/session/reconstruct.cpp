@@ -43,10 +43,9 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   clock.reset();
   confidence::ConfidenceOptions co = options.confidence;
   co.progress = progress;
-  const bool against_consolidated =
-      options.smoothness_points == SmoothnessPoints::consolidated ||
-      (options.smoothness_points == SmoothnessPoints::automatic && cons.wlop.applied &&
-       r.consolidated.size() >= static_cast<std::size_t>(std::max(co.k, 1)));
+  const bool against_consolidated = options.smoothness_points == SmoothnessPoints::consolidated ||
+                                    (options.smoothness_points == SmoothnessPoints::automatic && cons.wlop.applied &&
+                                     r.consolidated.size() >= static_cast<std::size_t>(std::max(co.k, 1)));
   const PointCloud& q = against_consolidated ? r.consolidated : raw;
   confidence::ConfidenceResult cr = confidence::assess_confidence(*pr.field, pr.mesh, q, r.reference_gradient, co);
   r.seconds["confidence"] = clock.seconds();
