@@ -26,9 +26,17 @@ double max_sphere_error(const TriangleMesh& m, const Vec3& c, double r) {
 TEST(Poisson, SphereIsClosedGenus0WithinHalfACell) {
   const Vec3 c(0.1, -0.2, 0.3);
   const double r = 0.4;
+  const PointCloud samples = sample_sphere(100000, c, r);
+  // With the plain trilinear splat of the normals too (normal_smoothing 0).
+  PoissonOptions plain;
+  plain.depth = 7;
+  plain.normal_smoothing = 0.0;
+  const auto res0 = reconstruct(samples, plain);
+  EXPECT_TRUE(topology(res0.mesh).closed_manifold());
+  EXPECT_LT(max_sphere_error(res0.mesh, c, r), 0.5 * res0.field->finest_cell_width());
   PoissonOptions opt;
   opt.depth = 7;
-  const auto res = reconstruct(sample_sphere(100000, c, r), opt);
+  const auto res = reconstruct(samples, opt);
   const Topology t = topology(res.mesh);
   EXPECT_TRUE(t.closed_manifold()) << t.boundary_edges << " " << t.nonmanifold_edges << " " << t.misoriented_edges;
   EXPECT_EQ(t.components, 1u);
@@ -332,6 +340,11 @@ TEST(Poisson, BadInputIsAnInputError) {
     PoissonOptions o = opt;
     o.depth = d;
     EXPECT_THROW(reconstruct(good, o), InputError) << d;
+  }
+  for (double a : {-0.01, 0.3, std::numeric_limits<double>::quiet_NaN()}) {
+    PoissonOptions o = opt;
+    o.normal_smoothing = a;
+    EXPECT_THROW(reconstruct(good, o), InputError) << a;
   }
   {
     PoissonOptions o = opt;
