@@ -347,7 +347,7 @@ void Solver::estimate_density() {
   const double spn = opt_.samples_per_node;
   const int min_depth = std::min(opt_.full_depth, D_);
   // Kernel sums cell by cell: the candidates of every sample of cell c are the runs of the 27 cells
-  // around c. visit(j, sum of w_q phi_q f(q), sum of w_q phi_q) for every sorted sample j.
+  // around c. visit(j, sum of w_q phi_q f(q), sum of w_q phi_q) for every sample j.
   auto kernel_sums = [&](auto&& f, auto&& visit) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ncells, 64), [&](const auto& rg) {
       std::pair<std::uint32_t, std::uint32_t> nb[27];
@@ -382,7 +382,7 @@ void Solver::estimate_density() {
       }
     });
   };
-  std::vector<double> logrho(N);  // sorted order
+  std::vector<double> logrho(N);
   kernel_sums([](std::uint32_t) { return 1.0; },
               [&](std::uint32_t j, double sum, double) {
                 const double rho = sum / norm;  // > 0 (itself)
@@ -390,8 +390,7 @@ void Solver::estimate_density() {
                 logrho[j] = std::log2(rho);
               });
   kernel_sums([&](std::uint32_t q) { return logrho[q]; },
-              [&](std::uint32_t j, double sum, double ws) {
-                const std::uint32_t i = j;
+              [&](std::uint32_t i, double sum, double ws) {
                 // The splat depth follows the density averaged once more over the kernel, so that it
                 // changes along smooth fronts rather than from sample to sample (a patchy octree makes
                 // bumps).
