@@ -122,12 +122,15 @@ int main(int argc, char** argv) {
       for (int a = 5; a < argc; ++a) {
         const std::string spec = argv[a];
         const auto c = spec.find(':');
+        Variant v{argv[a], 12, std::stod(spec.substr(0, c)), 0.0};
         const auto c2 = spec.find(':', c + 1);  // optional third field: vertex refinement steps
-        const auto c3 = c2 == std::string::npos ? c2 : spec.find(':', c2 + 1);  // fourth: normal smoothing
-        variants.push_back(
-            {argv[a], 12, std::stod(spec.substr(0, c)), std::stod(spec.substr(c + 1, c2 - c - 1)),
-             c2 == std::string::npos ? 2 : std::stoi(spec.substr(c2 + 1, c3 - c2 - 1)),
-             c3 == std::string::npos ? poisson::PoissonOptions{}.normal_smoothing : std::stod(spec.substr(c3 + 1))});
+        v.spn = std::stod(spec.substr(c + 1, c2 - c - 1));
+        if (c2 != std::string::npos) {
+          const auto c3 = spec.find(':', c2 + 1);  // optional fourth field: normal smoothing
+          v.refine = std::stoi(spec.substr(c2 + 1, c3 - c2 - 1));
+          if (c3 != std::string::npos) v.smoothing = std::stod(spec.substr(c3 + 1));
+        }
+        variants.push_back(v);
       }
     }
     for (const Variant& v : variants) {

@@ -1,5 +1,5 @@
 #pragma once
-// Options shared by the commands that run the virtual scanner (scan, blind-scan).
+// Options shared by the commands that take a scanner or a rig (scan, blind-scan, plan, session).
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>

@@ -299,14 +299,13 @@ void Solver::estimate_density() {
   const std::size_t N = s_.u.size();
   // The samples are stored in Morton order (Solver::run): a cell's samples are consecutive at every
   // depth, so the kernel sums below read contiguous runs.
-  const std::vector<std::uint64_t>& scode = s_.code;
   // Occupied cells per depth (Morton prefixes are runs).
   density_depth_ = 1;
   for (int d = 1; d <= D_; ++d) {
     const int shift = 3 * (D_ - d);
     std::size_t cells = 0;
     std::uint64_t prev = kNoKey;
-    for (std::uint64_t c : scode) {
+    for (std::uint64_t c : s_.code) {
       c >>= shift;
       cells += (c != prev);
       prev = c;
@@ -319,7 +318,7 @@ void Solver::estimate_density() {
   std::vector<std::uint64_t> run_code;
   std::vector<std::uint32_t> run_begin;
   for (std::size_t j = 0; j < N; ++j) {
-    const std::uint64_t c = scode[j] >> shift;
+    const std::uint64_t c = s_.code[j] >> shift;
     if (run_code.empty() || run_code.back() != c) {
       run_code.push_back(c);
       run_begin.push_back(static_cast<std::uint32_t>(j));

@@ -279,12 +279,6 @@ void SessionOptions::validate() const {
   nbv.validate();
 }
 
-const char* to_string(SmoothnessPoints s) {
-  for (const auto& [e, name] : EnumNames<SmoothnessPoints>::values)
-    if (e == s) return name;
-  return "?";
-}
-
 nlohmann::json to_json(const SessionOptions& o) {
   SessionOptions copy = o;
   return Writer::write(copy);

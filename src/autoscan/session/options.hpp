@@ -75,8 +75,6 @@ struct SessionOptions {
 /// SessionOptions as JSON (every field, nested option structs included) and back. Missing fields
 /// keep their defaults; unknown fields are an InputError naming them (typos must not pass silently).
 nlohmann::json to_json(const SessionOptions& o);
-const char* to_string(SmoothnessPoints s);
-
 /// Applies the fields present in `j` onto `base`.
 SessionOptions session_options_from_json(const nlohmann::json& j, SessionOptions base = {},
                                          const std::string& what = "config");
