@@ -30,7 +30,7 @@ if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 PACKAGES=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   libeigen3-dev libtbb-dev libembree-dev libnanoflann-dev libcgal-dev libgmp-dev libmpfr-dev
-  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev zlib1g-dev
+  libceres-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium
 )

@@ -10,6 +10,7 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "session_fixtures.hpp"
+#include "support/bumpy.hpp"
 
 using namespace autoscan;
 using namespace autoscan::session;
@@ -572,4 +573,144 @@ TEST(Pipeline, SmoothnessIsMeasuredOnTheDenoisedPointsWhenTheScannerIsNoisy) {
   const auto exact_raw = run(exact, session::SmoothnessPoints::raw);
   EXPECT_EQ(exact_auto.diagnostics["confidence"]["smoothness_points"], "raw");
   EXPECT_EQ(exact_auto.mean_f, exact_raw.mean_f);
+}
+
+// ---- global multi-view registration (docs/registration.md) ----------------------------------------
+
+namespace {
+
+// Eight blind scans of the bumpy test object from a ring, each with a robot pose error; scan
+// `far_off` (if >= 0) gets a further 4 cm shift, far beyond the declared accuracy.
+struct MisplacedBlindScans {
+  std::vector<Eigen::Isometry3d> error;
+};
+
+MisplacedBlindScans add_misplaced_blind_scans(Session& s, int far_off = -1) {
+  MisplacedBlindScans m;
+  Rng rng(21);
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 sensor = 1.2 * test::ring_sensor(k, 8);
+    Eigen::Isometry3d E = test::robot_error(sensor, 0.004, 0.5, rng);
+    if (k == far_off) E = Eigen::Translation3d(0.0, 0.0, 0.04) * E;
+    PointCloud c = test::bumpy_scan(sensor, 20000, 0.0005, 300 + static_cast<std::uint64_t>(k));
+    for (auto& p : c.positions) p = E * p;
+    s.add_scan(c, Pose::look_at(E * sensor, Vec3::Zero()));
+    m.error.push_back(E);
+  }
+  return m;
+}
+
+session::SessionOptions global_options() {
+  auto o = test::test_options();
+  o.global_registration = true;
+  o.multiway.robot_translation_sigma = 0.004;
+  o.multiway.robot_rotation_sigma_deg = 0.5;
+  return o;
+}
+
+// Largest distance, over the scans (except `skip`), between a scan's registered points and their
+// true places, after the one rigid motion that best fits all of them (the world frame is only known
+// to the robot's accuracy).
+double worst_residual(const Session& s, const MisplacedBlindScans& m, int skip = -1) {
+  std::vector<Eigen::Isometry3d> residual;
+  for (std::size_t k = 0; k < m.error.size(); ++k) residual.push_back(s.scans()[k].correction * m.error[k]);
+  // Probe points on the object, moved by each scan's residual; fit one rigid motion to them all.
+  const auto probes = test::fibonacci(50);
+  Eigen::Matrix3Xd A(3, 0), B(3, 0);
+  for (std::size_t k = 0; k < residual.size(); ++k) {
+    if (static_cast<int>(k) == skip) continue;
+    A.conservativeResize(3, A.cols() + static_cast<Eigen::Index>(probes.size()));
+    B.conservativeResize(3, B.cols() + static_cast<Eigen::Index>(probes.size()));
+    for (std::size_t i = 0; i < probes.size(); ++i) {
+      A.col(A.cols() - static_cast<Eigen::Index>(probes.size() - i)) = residual[k] * probes[i];
+      B.col(B.cols() - static_cast<Eigen::Index>(probes.size() - i)) = probes[i];
+    }
+  }
+  const Eigen::Isometry3d G(Eigen::Matrix4d(Eigen::umeyama(A, B, false)));
+  double worst = 0.0;
+  for (std::size_t k = 0; k < residual.size(); ++k) {
+    if (static_cast<int>(k) == skip) continue;
+    for (const auto& p : probes) worst = std::max(worst, (G * (residual[k] * p) - p).norm());
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(GlobalRegistration, AlignsTheBlindScansBeforeTheFirstModel) {
+  const auto dir = fresh_dir("global_blind");
+  auto s = Session::create(dir, ScannerSpec{}, Rig{}, global_options());
+  s.set_reconstructor(scripted_reconstructor({0.5}));
+  const auto m = add_misplaced_blind_scans(s);
+  EXPECT_GT(worst_residual(s, m), 0.005);  // as reported: up to centimetres off
+  s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+  EXPECT_LT(worst_residual(s, m), 0.002);  // the object is 0.5 across, its depth noise 0.5 mm
+  const auto& g = s.iterations()[0].registration;
+  ASSERT_TRUE(g.is_object());
+  EXPECT_GE(g.at("pairs_used").get<int>(), 8);
+  EXPECT_EQ(g.at("scans_excluded").get<int>(), 0);
+  for (const auto& r : s.scans()) {
+    EXPECT_FALSE(r.excluded);
+    EXPECT_TRUE(r.global_registration.is_object());
+  }
+  const auto st = to_json(s.status());
+  EXPECT_GE(st.at("registration").at("pairs_used").get<int>(), 8);
+  fs::remove_all(dir);
+}
+
+TEST(GlobalRegistration, KeepsAScanFarBeyondTheAccuracyOutOfTheModel) {
+  const auto dir = fresh_dir("global_outlier");
+  std::size_t model_size = 0;
+  {
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, global_options());
+    s.set_reconstructor(scripted_reconstructor({0.5}));
+    const auto m = add_misplaced_blind_scans(s, 5);
+    s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+    ASSERT_TRUE(s.scans()[5].excluded);
+    EXPECT_FALSE(s.scans()[5].excluded_reason.empty());
+    for (int k = 0; k < 8; ++k) {
+      if (k == 5) continue;
+      EXPECT_FALSE(s.scans()[static_cast<std::size_t>(k)].excluded) << k;
+    }
+    const auto& ids = s.model_points().scalars.get("scan_id");
+    EXPECT_EQ(std::count(ids.begin(), ids.end(), 5.0), 0);  // none of its points in the model
+    EXPECT_LT(worst_residual(s, m, 5), 0.002);
+    EXPECT_EQ(to_json(s.status()).at("excluded_scans").get<int>(), 1);
+    model_size = s.model_points().size();
+  }
+  // It stays out after a restart, and its file is kept.
+  EXPECT_TRUE(fs::exists(dir / "scans" / "scan_0005.ply"));
+  auto r = Session::open(dir);
+  EXPECT_TRUE(r.scans()[5].excluded);
+  EXPECT_EQ(r.model_points().size(), model_size);
+  fs::remove_all(dir);
+}
+
+TEST(GlobalRegistration, AResumedSessionReproducesTheRegistration) {
+  const auto dir = fresh_dir("global_resume");
+  PointCloud model;
+  std::vector<ScanRecord> scans;
+  {
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, global_options());
+    s.set_reconstructor(scripted_reconstructor({0.3}));
+    add_misplaced_blind_scans(s);
+    const auto a = s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+    Rng rng(5);
+    for (const auto& v : a.views) {
+      PointCloud c = test::bumpy_scan(v.pose.position, 20000, 0.0005, 900);
+      const auto E = test::robot_error(v.pose.position, 0.004, 0.5, rng);
+      for (auto& p : c.positions) p = E * p;
+      s.add_scan(c, v.pose);
+    }
+    s.next_views();  // the second iteration registers the new scans with the ones they overlap
+    scans = s.scans();
+    model = s.model_points();
+    EXPECT_TRUE(s.iterations()[1].registration.is_object());
+  }
+  auto r = Session::open(dir);
+  ASSERT_EQ(r.scans().size(), scans.size());
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    EXPECT_TRUE(r.scans()[i].correction.matrix() == scans[i].correction.matrix()) << i;
+  EXPECT_TRUE(same_cloud(r.model_points(), model));
+  fs::remove_all(dir);
 }

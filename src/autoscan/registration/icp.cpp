@@ -180,7 +180,8 @@ bool step_point_to_point(const Pairs& p, const std::vector<Vec3>& moved, const P
 }  // namespace
 
 IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights,
-              const IcpOptions& options, const Eigen::Isometry3d& initial, ProgressCallback progress) {
+              const IcpOptions& options, const Eigen::Isometry3d& initial, ProgressCallback progress,
+              std::span<const double> source_weights) {
   Stopwatch clock;
   AUTOSCAN_REQUIRE(!source.empty(), "icp: the source scan has no points");
   AUTOSCAN_REQUIRE(!target.empty(), "icp: the target model has no points");
@@ -190,6 +191,10 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
                    "icp: {} target weights for {} target points", target_weights.size(), target.size());
   for (double w : target_weights)
     AUTOSCAN_REQUIRE(std::isfinite(w) && w >= 0.0, "icp: target weights must be finite and non-negative (got {})", w);
+  AUTOSCAN_REQUIRE(source_weights.empty() || source_weights.size() == source.size(),
+                   "icp: {} source weights for {} source points", source_weights.size(), source.size());
+  for (double w : source_weights)
+    AUTOSCAN_REQUIRE(std::isfinite(w) && w >= 0.0, "icp: source weights must be finite and non-negative (got {})", w);
   AUTOSCAN_REQUIRE(options.max_iterations >= 0, "icp: max_iterations must be >= 0");
   AUTOSCAN_REQUIRE(options.max_correspondence_distance >= 0.0, "icp: max_correspondence_distance must be >= 0");
   AUTOSCAN_REQUIRE(options.trim_fraction > 0.0 && options.trim_fraction <= 1.0, "icp: trim_fraction must be in (0, 1]");
@@ -210,10 +215,14 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
 
   // Deterministic stride subsampling of the scan.
   std::vector<Vec3> src;
+  std::vector<double> src_w;
   const std::size_t cap = options.max_source_points == 0 ? source.size() : options.max_source_points;
   const std::size_t stride = (source.size() + cap - 1) / cap;
   src.reserve(source.size() / stride + 1);
-  for (std::size_t i = 0; i < source.size(); i += stride) src.push_back(source.positions[i]);
+  for (std::size_t i = 0; i < source.size(); i += stride) {
+    src.push_back(source.positions[i]);
+    if (!source_weights.empty()) src_w.push_back(source_weights[i]);
+  }
   res.source_points_used = src.size();
 
   const NearestNeighbors nn(target.positions);
@@ -228,10 +237,12 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
       break;
     }
     w.assign(pairs.src.size(), 1.0);
-    if (!target_weights.empty()) {
+    if (!target_weights.empty() || !src_w.empty()) {
       double wsum = 0.0;
       for (std::size_t k = 0; k < pairs.tgt.size(); ++k) {
-        w[k] = target_weights[pairs.tgt[k]];
+        const double wt = target_weights.empty() ? 1.0 : target_weights[pairs.tgt[k]];
+        const double ws = src_w.empty() ? 1.0 : src_w[pairs.src[k]];
+        w[k] = options.weights_are_precisions ? (wt > 0.0 && ws > 0.0 ? 1.0 / (1.0 / wt + 1.0 / ws) : 0.0) : wt * ws;
         wsum += w[k];
       }
       if (wsum <= 1e-12) {

@@ -31,8 +31,12 @@ struct IcpOptions {
                                              ///< false makes a target without normals an InputError
   std::size_t max_source_points = 20000;     ///< deterministic stride subsampling of the scan (0 = all)
   std::size_t min_correspondences = 12;      ///< fewer pairs: give up and return the initial transform
-  double damping = 1e-9;                     ///< Levenberg damping of the 6x6 normal equations (relative
-                                             ///< to their trace) against sliding along symmetric shapes
+  /// How a pair's weight comes from its source and target weights: false, their product (the
+  /// confidence weights of §5.3); true, the weights are precisions 1/σ² of the points and a pair
+  /// weighs 1/(σ_s² + σ_t²), the precision of their difference (quality-weighted registration).
+  bool weights_are_precisions = false;
+  double damping = 1e-9;  ///< Levenberg damping of the 6x6 normal equations (relative
+                          ///< to their trace) against sliding along symmetric shapes
 };
 
 struct IcpResult {
@@ -63,9 +67,11 @@ struct IcpResult {
 /// @param initial         starting transform (identity: trust the robot's reported pose)
 /// Throws InputError for empty clouds, a weight count that is not #T, negative/non-finite weights or
 /// invalid options.
+/// @param source_weights  #S non-negative weights of the source points, or empty; a pair's weight is
+///                        the product of its source and target weights
 IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights = {},
               const IcpOptions& options = {}, const Eigen::Isometry3d& initial = Eigen::Isometry3d::Identity(),
-              ProgressCallback progress = {});
+              ProgressCallback progress = {}, std::span<const double> source_weights = {});
 
 /// {"method", "iterations", "converged", "degenerate", "rms_before", "rms_after", "inlier_fraction",
 ///  "correspondences", "correction_translation", "correction_rotation_deg", "correction": 4x4 row-major,

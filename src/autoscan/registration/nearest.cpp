@@ -60,6 +60,19 @@ std::size_t NearestNeighbors::nearest(const Vec3& q, double* dist2) const {
   return idx;
 }
 
+std::size_t NearestNeighbors::knn(const Vec3& q, std::size_t k, std::vector<std::size_t>& out_index,
+                                  std::vector<double>& out_dist2) const {
+  const std::size_t want = std::min(k, size());
+  out_index.resize(want);
+  out_dist2.resize(want);
+  if (want == 0) return 0;
+  const double query[3] = {q.x(), q.y(), q.z()};
+  const auto n = impl_->tree->knnSearch(query, want, out_index.data(), out_dist2.data());
+  out_index.resize(n);
+  out_dist2.resize(n);
+  return n;
+}
+
 void NearestNeighbors::nearest(std::span<const Vec3> queries, std::span<std::size_t> out_index,
                                std::span<double> out_dist2) const {
   AUTOSCAN_CHECK(out_index.size() == queries.size(), "NearestNeighbors: output size mismatch");

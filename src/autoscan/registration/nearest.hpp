@@ -31,6 +31,10 @@ class NearestNeighbors {
   /// Nearest point of each query, in parallel (oneTBB); out_index/out_dist2 have queries.size()
   /// entries (out_dist2 may be empty). The result does not depend on thread scheduling.
   void nearest(std::span<const Vec3> queries, std::span<std::size_t> out_index, std::span<double> out_dist2) const;
+  /// The k nearest points of `q` (fewer when the set is smaller), nearest first: their indices in
+  /// `out_index` and squared distances in `out_dist2` (both resized). Returns how many were found.
+  std::size_t knn(const Vec3& q, std::size_t k, std::vector<std::size_t>& out_index,
+                  std::vector<double>& out_dist2) const;
 
  private:
   struct Impl;

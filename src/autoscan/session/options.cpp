@@ -48,6 +48,7 @@ void fields(consolidate::NormalOptions& o, V& v) {
   v("k", o.k);
   v("orientation", o.orientation);
   v("mst_k", o.mst_k);
+  v("sheet_refinement", o.sheet_refinement);
 }
 template <class V>
 void fields(consolidate::ConsolidateOptions& o, V& v) {
@@ -69,6 +70,7 @@ void fields(poisson::PoissonOptions& o, V& v) {
   v("coarse_max_iterations", o.coarse_max_iterations);
   v("coarse_tolerance", o.coarse_tolerance);
   v("weight_scalar", o.weight_scalar);
+  v("vertex_refinement", o.vertex_refinement);
   v("extract_mesh", o.extract_mesh);
   v("trim", o.trim);
   v("min_points", o.min_points);
@@ -119,7 +121,27 @@ void fields(registration::IcpOptions& o, V& v) {
   v("allow_point_to_point", o.allow_point_to_point);
   v("max_source_points", o.max_source_points);
   v("min_correspondences", o.min_correspondences);
+  v("weights_are_precisions", o.weights_are_precisions);
   v("damping", o.damping);
+}
+template <class V>
+void fields(registration::MultiwayOptions& o, V& v) {
+  v("robot_translation_sigma", o.robot_translation_sigma);
+  v("robot_rotation_sigma_deg", o.robot_rotation_sigma_deg);
+  v("min_overlap", o.min_overlap);
+  v("overlap_distance", o.overlap_distance);
+  v("sample_points", o.sample_points);
+  v("target_points", o.target_points);
+  v("normal_k", o.normal_k);
+  v("max_incidence_deg", o.max_incidence_deg);
+  v("incidence_gain", o.incidence_gain);
+  v("rounds", o.rounds);
+  v("max_disagreement", o.max_disagreement);
+  v("outlier_sigma", o.outlier_sigma);
+  v("free_neighbors", o.free_neighbors);
+  v("robust_scale", o.robust_scale);
+  v("information_points", o.information_points);
+  v("icp", o.icp);
 }
 template <class V>
 void fields(SessionOptions& o, V& v) {
@@ -132,6 +154,8 @@ void fields(SessionOptions& o, V& v) {
   v("nbv", o.nbv);
   v("icp", o.icp);
   v("register_scans", o.register_scans);
+  v("global_registration", o.global_registration);
+  v("multiway", o.multiway);
   v("registration_min_improvement", o.registration_min_improvement);
   v("registration_max_translation", o.registration_max_translation);
   v("registration_max_rotation_deg", o.registration_max_rotation_deg);
@@ -277,6 +301,7 @@ void SessionOptions::validate() const {
   AUTOSCAN_REQUIRE(max_iterations >= 1, "options: max_iterations must be >= 1 (got {})", max_iterations);
   AUTOSCAN_REQUIRE(max_views >= 0, "options: max_views must be >= 0 (got {})", max_views);
   nbv.validate();
+  multiway.validate("options: multiway");
 }
 
 nlohmann::json to_json(const SessionOptions& o) {

@@ -9,6 +9,7 @@
 #include "autoscan/nbv/nbv.hpp"
 #include "autoscan/poisson/poisson.hpp"
 #include "autoscan/registration/icp.hpp"
+#include "autoscan/registration/multiway.hpp"
 
 namespace autoscan::session {
 
@@ -46,6 +47,13 @@ struct SessionOptions {
   nbv::NbvOptions nbv;                                               ///< §5.1-5.2, Eq. 4-5 (100³ grid, σ = 25°)
   registration::IcpOptions icp;                                      ///< §5.3 weighted ICP
   bool register_scans = true;  ///< §5.3: register each scan to the model (weighted ICP) once a model exists
+  /// Global multi-view registration (registration/multiway.hpp, docs/registration.md) at each
+  /// iteration, before the reconstruction: the scans added since the last iteration and the scans
+  /// they overlap are registered to each other in a pose graph whose priors are the reported poses
+  /// (the robot's accuracy: multiway.robot_translation_sigma, robot_rotation_sigma_deg). Blind scans
+  /// are thus aligned before the first model. Needs register_scans.
+  bool global_registration = true;
+  registration::MultiwayOptions multiway;  ///< the robot's accuracy, overlap, rounds, outlier rule
   /// §5.3 registration acceptance. ICP's correction is applied only when it lowers the residual RMS by
   /// at least this share: on noisy data a correction that does not fit better is the scan sliding
   /// along the model, not a pose error being fixed (measured: bunny00 at noise 0.5 gave 3° corrections

@@ -152,6 +152,9 @@ json to_json(const ScanRecord& r) {
             {"correction", matrix_json(r.correction)},
             {"registration", r.registration ? registration::to_json(*r.registration) : json(nullptr)},
             {"registration_accepted", !r.correction.isApprox(Eigen::Isometry3d::Identity(), 0.0)},
+            {"global_registration", r.global_registration},
+            {"excluded", r.excluded},
+            {"excluded_reason", r.excluded ? json(r.excluded_reason) : json(nullptr)},
             {"seconds", {{"registration", r.seconds_registration}, {"insertion", r.seconds_insertion}}}};
   return j;
 }
@@ -173,6 +176,7 @@ json to_json(const IterationRecord& r) {
           {"path_length", r.path_length},
           {"seconds", secs},
           {"planner", r.planner_diagnostics},
+          {"registration", r.registration},
           {"truth", r.truth},
           {"stopped", r.stopped},
           {"stop_reason", r.stop_reason.empty() ? json(nullptr) : json(r.stop_reason)}};
@@ -186,6 +190,8 @@ json to_json(const SessionStatus& s) {
           {"iterations", s.iterations},
           {"views_planned", s.views_planned},
           {"pending_scans", s.pending_scans},
+          {"excluded_scans", s.excluded_scans},
+          {"registration", s.registration},
           {"stopped", s.stopped},
           {"stop_reason", s.stop_reason.empty() ? json(nullptr) : json(s.stop_reason)},
           {"last_mean_f", s.last_mean_f ? json(*s.last_mean_f) : json(nullptr)},
@@ -210,6 +216,13 @@ ScanRecord scan_from_json(const json& j, const std::string& what) {
   r.reported_pose = pose_from_json(j.at("pose"), what + ".pose");
   r.registered_pose = pose_from_json(j.at("registered_pose"), what + ".registered_pose");
   r.correction = matrix_from_json(j.at("correction"), what + ".correction");
+  if (j.contains("global_registration")) r.global_registration = j.at("global_registration");
+  if (j.contains("excluded")) {
+    AUTOSCAN_REQUIRE(j.at("excluded").is_boolean(), "{}.excluded: expected true or false", what);
+    r.excluded = j.at("excluded").get<bool>();
+    if (r.excluded && j.contains("excluded_reason") && j.at("excluded_reason").is_string())
+      r.excluded_reason = j.at("excluded_reason").get<std::string>();
+  }
   if (j.contains("registration") && j.at("registration").is_object()) {
     const auto& g = j.at("registration");
     registration::IcpResult ir;
@@ -251,6 +264,7 @@ IterationRecord iteration_from_json(const json& j, const std::string& what) {
     r.path_length = j.at("path_length").get<double>();
     for (const auto& [k, v] : j.at("seconds").items()) r.seconds[k] = v.get<double>();
     r.planner_diagnostics = j.at("planner");
+    if (j.contains("registration")) r.registration = j.at("registration");
     r.truth = j.at("truth");
     r.stopped = j.at("stopped").get<bool>();
     r.stop_reason = j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
@@ -277,6 +291,12 @@ struct Session::Impl {
   std::vector<ScanRecord> scans;
   std::vector<IterationRecord> iterations;
   PointCloud model;  // every inserted point, registered
+  // Parallel to model.positions: each point and its sensor position as received (the reported
+  // pose's frame), so a changed correction recomputes them exactly as open() does.
+  std::vector<Vec3> model_src, model_src_sensor;
+  // Per scan: a stride sample (positions, normals when the scan has them) at its reported pose, for
+  // the global registration.
+  std::vector<PointCloud> reg_samples;
   std::size_t model_size_at_last_iteration = 0;
   std::optional<Pose> current_pose;
   int views_planned = 0;
@@ -360,6 +380,128 @@ struct Session::Impl {
       nn.nearest(target.positions, idx, {});
       for (std::size_t i = 0; i < target.size(); ++i) target_weight[i] = std::clamp(iso_f[idx[i]], 0.0, 1.0);
     }
+  }
+
+  PointCloud registration_sample(const PointCloud& scan) const {
+    PointCloud out;
+    const std::size_t cap = std::max<std::size_t>(1, options.multiway.target_points);
+    const std::size_t stride = std::max<std::size_t>(1, (scan.size() + cap - 1) / cap);
+    for (std::size_t i = 0; i < scan.size(); i += stride) {
+      out.positions.push_back(scan.positions[i]);
+      if (scan.has_normals()) out.normals.push_back(scan.normals[i]);
+    }
+    return out;
+  }
+
+  // Appends the kept points of a scan: `reported` as received, `registered` after its correction.
+  void append_to_model(const PointCloud& reported, const PointCloud& registered, const std::vector<char>& keep) {
+    if (registered.empty()) return;
+    model.append(model_part(registered, keep));
+    const auto& sx = reported.scalars.get("sensor_x");
+    const auto& sy = reported.scalars.get("sensor_y");
+    const auto& sz = reported.scalars.get("sensor_z");
+    for (std::size_t i = 0; i < reported.size(); ++i) {
+      if (!keep[i]) continue;
+      model_src.push_back(reported.positions[i]);
+      model_src_sensor.emplace_back(sx[i], sy[i], sz[i]);
+    }
+  }
+
+  // Recomputes the model points of scan `id` from their received positions and its correction
+  // (the same arithmetic as apply_transform, so a resumed session rebuilds identical points).
+  void reapply_correction(int id) {
+    const Eigen::Isometry3d& C = scans[static_cast<std::size_t>(id)].correction;
+    const bool identity = C.isApprox(Eigen::Isometry3d::Identity(), 0.0);
+    const auto& sid = model.scalars.get("scan_id");
+    auto& sx = *model.scalars.find("sensor_x");
+    auto& sy = *model.scalars.find("sensor_y");
+    auto& sz = *model.scalars.find("sensor_z");
+    for (std::size_t k = 0; k < model.size(); ++k) {
+      if (static_cast<int>(sid[k]) != id) continue;
+      const Vec3 p = identity ? model_src[k] : Vec3(C * model_src[k]);
+      const Vec3 q = identity ? model_src_sensor[k] : Vec3(C * model_src_sensor[k]);
+      model.positions[k] = p;
+      sx[k] = q.x();
+      sy[k] = q.y();
+      sz[k] = q.z();
+    }
+  }
+
+  void remove_from_model(int id) {
+    const auto& sid = model.scalars.get("scan_id");
+    std::vector<std::size_t> keep;
+    keep.reserve(model.size());
+    for (std::size_t k = 0; k < model.size(); ++k)
+      if (static_cast<int>(sid[k]) != id) keep.push_back(k);
+    if (keep.size() == model.size()) return;
+    model.select(keep);
+    std::vector<Vec3> a, b;
+    a.reserve(keep.size());
+    b.reserve(keep.size());
+    for (std::size_t k : keep) {
+      a.push_back(model_src[k]);
+      b.push_back(model_src_sensor[k]);
+    }
+    model_src = std::move(a);
+    model_src_sensor = std::move(b);
+  }
+
+  // The global multi-view registration of an iteration (docs/registration.md): the scans added since
+  // the last iteration are freed, with the scans they overlap; the others anchor them.
+  void global_registration(IterationRecord& it) {
+    const int first = pending_from();
+    const int n = static_cast<int>(scans.size());
+    if (!options.register_scans || !options.global_registration || first >= n) return;
+    std::vector<PointCloud> samples(scans.size());
+    std::vector<Vec3> sensors(scans.size());
+    std::vector<Eigen::Isometry3d> initial(scans.size());
+    std::vector<char> free(scans.size(), 0);
+    for (int i = 0; i < n; ++i) {
+      const auto& r = scans[static_cast<std::size_t>(i)];
+      if (!r.excluded) samples[static_cast<std::size_t>(i)] = reg_samples[static_cast<std::size_t>(i)];
+      sensors[static_cast<std::size_t>(i)] = r.reported_pose.position;
+      initial[static_cast<std::size_t>(i)] = r.correction;
+      free[static_cast<std::size_t>(i)] = i >= first && !r.excluded ? 1 : 0;
+    }
+    const auto res = registration::register_multiway(samples, sensors, initial, free, options.multiway, progress);
+    int moved = 0, excluded = 0;
+    for (int i = 0; i < n; ++i) {
+      const auto& rep = res.scans[static_cast<std::size_t>(i)];
+      auto& r = scans[static_cast<std::size_t>(i)];
+      if (!rep.free) continue;
+      json g = {{"iteration", it.index},
+                {"pairs_used", rep.pairs_used},
+                {"mahalanobis", rep.mahalanobis},
+                {"correction_translation", rep.correction_translation},
+                {"correction_rotation_deg", rep.correction_rotation_deg},
+                {"previous_correction", matrix_json(r.correction)},
+                {"flagged", rep.flagged}};
+      if (rep.flagged) {
+        r.excluded = true;
+        r.excluded_reason = rep.flag_reason;
+        remove_from_model(i);
+        ++excluded;
+        log::warn("scan {}: kept out of the model ({})", i, rep.flag_reason);
+      } else if (!res.corrections[static_cast<std::size_t>(i)].isApprox(r.correction, 0.0)) {
+        r.correction = res.corrections[static_cast<std::size_t>(i)];
+        r.registered_pose = r.reported_pose.transformed(r.correction);
+        reapply_correction(i);
+        ++moved;
+      }
+      r.global_registration = std::move(g);
+    }
+    // Points of the scans before this iteration's (for the "new" flags of cloud.ply).
+    const auto& sid = model.scalars.get("scan_id");
+    model_size_at_last_iteration = static_cast<std::size_t>(
+        std::count_if(sid.begin(), sid.end(), [&](double v) { return static_cast<int>(v) < first; }));
+    json summary = registration::to_json(res);
+    summary["scans_moved"] = moved;
+    summary["scans_excluded"] = excluded;
+    it.registration = std::move(summary);
+    it.seconds["global_registration"] = res.seconds;
+    log::info("iteration {}: global registration of {} scans: {} pairs used, {} dropped, {} scans kept out ({:.2f} s)",
+              it.index, std::count(free.begin(), free.end(), 1), it.registration["pairs_used"].get<std::size_t>(),
+              it.registration["pairs_dropped"].get<std::size_t>(), excluded, res.seconds);
   }
 
   // Registers (when a model exists) and selects the points of a scan; returns the registered scan.
@@ -511,9 +653,11 @@ Session Session::open(const fs::path& dir) {
     }
     AUTOSCAN_REQUIRE(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1)) == rec.inserted,
                      "{}: insertion flags disagree with session.json", file.string());
-    apply_transform(scan, rec.correction);
-    if (impl->planner) impl->planner->observe_scan(scan, rec.registered_pose);
-    if (!scan.empty()) impl->model.append(model_part(scan, keep));
+    PointCloud registered = scan;
+    apply_transform(registered, rec.correction);
+    if (impl->planner) impl->planner->observe_scan(registered, rec.registered_pose);
+    if (!rec.excluded) impl->append_to_model(scan, registered, keep);
+    impl->reg_samples.push_back(impl->registration_sample(scan));
     impl->scans.push_back(std::move(rec));
     // Model size when each iteration ran (for the "new" flags of the next cloud.ply).
   }
@@ -521,7 +665,8 @@ Session Session::open(const fs::path& dir) {
     // Points inserted before the last iteration: the scans it (and earlier ones) used.
     const int used = impl->pending_from();
     std::size_t n = 0;
-    for (int i = 0; i < used && i < static_cast<int>(impl->scans.size()); ++i) n += impl->scans[i].inserted;
+    for (int i = 0; i < used && i < static_cast<int>(impl->scans.size()); ++i)
+      if (!impl->scans[static_cast<std::size_t>(i)].excluded) n += impl->scans[static_cast<std::size_t>(i)].inserted;
     impl->model_size_at_last_iteration = n;
   }
   if (!impl->iterations.empty()) {
@@ -566,7 +711,8 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
   }
   write_text_atomic(m.dir / "scans" / (stem + ".json"), to_json(rec).dump(1) + "\n");
   if (m.planner) m.planner->observe_scan(registered, rec.registered_pose);
-  if (!registered.empty()) m.model.append(model_part(registered, keep));
+  m.append_to_model(scan, registered, keep);
+  m.reg_samples.push_back(m.registration_sample(scan));
   m.scans.push_back(rec);
   m.current_pose = rec.registered_pose;
   m.persist();
@@ -600,6 +746,9 @@ NextViews Session::next_views(const Pose& current) {
     it.seconds["registration"] += m.scans[s].seconds_registration;
     it.seconds["insertion"] += m.scans[s].seconds_insertion;
   }
+
+  m.global_registration(it);
+  AUTOSCAN_REQUIRE(!m.model.empty(), "next_views: every scan was kept out of the model (see session status)");
 
   auto rec = std::make_shared<Reconstruction>(m.reconstructor(m.model, m.options, m.progress));
   for (const auto& [stage, s] : rec->seconds) it.seconds[stage] = s;
@@ -720,6 +869,14 @@ SessionStatus Session::status() const {
   if (!m.iterations.empty()) s.last_mean_f = m.iterations.back().mean_f;
   s.current_pose = m.current_pose;
   s.pending_scans = static_cast<int>(m.scans.size()) - m.pending_from();
+  s.excluded_scans =
+      static_cast<int>(std::count_if(m.scans.begin(), m.scans.end(), [](const ScanRecord& r) { return r.excluded; }));
+  if (!m.iterations.empty() && m.iterations.back().registration.is_object()) {
+    const auto& g = m.iterations.back().registration;
+    s.registration = {{"iteration", m.iterations.back().index},         {"pairs_used", g.value("pairs_used", 0)},
+                      {"pairs_dropped", g.value("pairs_dropped", 0)},   {"scans_moved", g.value("scans_moved", 0)},
+                      {"scans_excluded", g.value("scans_excluded", 0)}, {"seconds", g.value("seconds", 0.0)}};
+  }
   return s;
 }
 

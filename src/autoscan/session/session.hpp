@@ -51,7 +51,14 @@ struct ScanRecord {
   Pose reported_pose;        ///< as the robot reported it
   Pose registered_pose;      ///< after the registration correction
   Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();  ///< applied to the scan (world frame)
-  std::optional<registration::IcpResult> registration;           ///< when ICP ran
+  std::optional<registration::IcpResult> registration;           ///< when ICP ran (to the model, at add_scan)
+  /// The global registration's report on this scan (multiway.hpp's per-scan figures and the
+  /// correction before it), from the last iteration that moved it; null when none did.
+  nlohmann::json global_registration;
+  /// Kept out of the model: its reported pose is far beyond the robot's declared accuracy, or it
+  /// overlaps other scans but agrees with none (docs/registration.md). The scan file is kept.
+  bool excluded = false;
+  std::string excluded_reason;
   double seconds_registration = 0.0;
   double seconds_insertion = 0.0;
 };
@@ -70,6 +77,8 @@ struct IterationRecord {
   double path_length = 0.0;
   std::map<std::string, double> seconds;  ///< consolidate, poisson, confidence, plan, registration, insertion, write
   nlohmann::json planner_diagnostics = nlohmann::json::object();
+  /// The global registration of this iteration (registration::to_json(MultiwayResult)), or null.
+  nlohmann::json registration;
   nlohmann::json truth;  ///< null, or what a driver that knows the truth attached
   bool stopped = false;
   std::string stop_reason;  ///< "", "converged", "confidence_fell", "max_iterations", "max_views", "no_views"
@@ -98,7 +107,10 @@ struct SessionStatus {
   std::string stop_reason;
   std::optional<double> last_mean_f;
   std::optional<Pose> current_pose;
-  int pending_scans = 0;  ///< scans added since the last iteration
+  int pending_scans = 0;   ///< scans added since the last iteration
+  int excluded_scans = 0;  ///< scans kept out of the model (ScanRecord::excluded)
+  /// The last iteration's global registration in brief: pairs used and dropped, seconds.
+  nlohmann::json registration;
 };
 nlohmann::json to_json(const SessionStatus& s);
 nlohmann::json to_json(const IterationRecord& r);

@@ -460,6 +460,14 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
     options.session.registration_max_translation = std::max(1e-9, 6.0 * nz.magnitude * nz.pose_translation_sigma);
     options.session.registration_max_rotation_deg = std::max(1e-9, 6.0 * nz.magnitude * nz.pose_rotation_sigma_deg);
   }
+  // The global registration's priors are the robot's accuracy; a noise-free robot is exact and
+  // needs none (its scans stay where the robot put them, as with the bound above).
+  if (nz.magnitude * nz.pose_translation_sigma <= 0.0 && nz.magnitude * nz.pose_rotation_sigma_deg <= 0.0) {
+    options.session.global_registration = false;
+  } else {
+    options.session.multiway.robot_translation_sigma = std::max(1e-6, nz.magnitude * nz.pose_translation_sigma);
+    options.session.multiway.robot_rotation_sigma_deg = std::max(1e-4, nz.magnitude * nz.pose_rotation_sigma_deg);
+  }
   options.validate();
   AUTOSCAN_REQUIRE(!truth_in.empty(), "simulate: the mesh has no faces");
   truth_in.validate("simulate: mesh");

@@ -1,0 +1,312 @@
+// Real range scans through a session, with and without a robot's pose error (docs/benchmarks.md,
+// "Real scans: dragon_stand"). Reads a scanalyze .conf and its range scans (the Stanford
+// dragon_stand set: 15 Cyberware scans on a turntable, metres; pose convention p_world = Rᵀ p + t
+// with R from the quaternion (qx, qy, qz, qw)), places each scan with its true pose, perturbs it by
+// a robot error (a turn of σ_r about the sensor and a shift of σ_t, seeded), feeds the scans to a
+// session as a robot would, runs the first iteration (global registration, consolidation, Poisson)
+// and measures, after the one rigid motion that best fits the result to the truth:
+//   * per scan: median distance of its registered points from their true places;
+//   * the Poisson mesh: median distance of the truly aligned scan points to it, and the share
+//     farther than 0.5 mm.
+// Usage: realscan_registration DIR OUT [--sigma-t M] [--sigma-r DEG] [--seed S] [--no-global]
+//        [--depth D] [--sensor-distance M] [--json FILE]
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/random.hpp"
+#include "autoscan/eval/mesh_distance.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/registration/icp.hpp"
+#include "autoscan/registration/nearest.hpp"
+#include "autoscan/session/session.hpp"
+
+using namespace autoscan;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Scan {
+  std::string name;
+  PointCloud truth;                                        // world frame, true pose
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // scan → world (true)
+};
+
+std::vector<Scan> load(const fs::path& dir) {
+  fs::path conf;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".conf") conf = e.path();
+  if (conf.empty()) throw std::runtime_error(dir.string() + ": no .conf file");
+  std::ifstream in(conf);
+  std::vector<Scan> scans;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    std::string kind, name;
+    double tx, ty, tz, qx, qy, qz, qw;
+    if (!(ls >> kind >> name >> tx >> ty >> tz >> qx >> qy >> qz >> qw) || kind != "bmesh") continue;
+    Scan s;
+    s.name = name;
+    const Mat3 R = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
+    s.pose.linear() = R.transpose();  // p_world = Rᵀ p + t (dragon_stand README, verified)
+    s.pose.translation() = Vec3(tx, ty, tz);
+    PointCloud c = io::read_point_cloud(dir / name);
+    c.normals.clear();
+    c.scalars = {};
+    for (auto& p : c.positions) p = s.pose * p;
+    s.truth = std::move(c);
+    scans.push_back(std::move(s));
+  }
+  return scans;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr,
+                 "usage: %s DIR OUT [--sigma-t M] [--sigma-r DEG] [--seed S] [--no-global] [--depth D] "
+                 "[--sensor-distance M] [--json FILE]\n",
+                 argv[0]);
+    return 2;
+  }
+  const fs::path dir = argv[1], out = argv[2];
+  double sigma_t = 0.003, sigma_r = 1.0, sensor_distance = 0.4;
+  std::uint64_t seed = 1;
+  bool global = true;
+  int depth = 0;
+  double prior_scale = 1.0, info_points = 0.0, robust = -1.0, trim = 0.0, incidence = 0.0, power = -1.0, disagree = 0.0,
+         min_overlap = 0.0;
+  int rounds = 0;
+  std::string json_out;
+  for (int a = 3; a < argc; ++a) {
+    const std::string k = argv[a];
+    auto next = [&]() -> std::string { return a + 1 < argc ? argv[++a] : ""; };
+    if (k == "--sigma-t")
+      sigma_t = std::stod(next());
+    else if (k == "--sigma-r")
+      sigma_r = std::stod(next());
+    else if (k == "--seed")
+      seed = std::stoull(next());
+    else if (k == "--no-global")
+      global = false;
+    else if (k == "--depth")
+      depth = std::stoi(next());
+    else if (k == "--sensor-distance")
+      sensor_distance = std::stod(next());
+    else if (k == "--json")
+      json_out = next();
+    else if (k == "--prior-scale")
+      prior_scale = std::stod(next());
+    else if (k == "--info-points")
+      info_points = std::stod(next());
+    else if (k == "--robust")
+      robust = std::stod(next());
+    else if (k == "--trim")
+      trim = std::stod(next());
+    else if (k == "--rounds")
+      rounds = std::stoi(next());
+    else if (k == "--incidence")
+      incidence = std::stod(next());
+    else if (k == "--gain")
+      power = std::stod(next());
+    else if (k == "--disagree")
+      disagree = std::stod(next());
+    else if (k == "--min-overlap")
+      min_overlap = std::stod(next());
+    else {
+      std::fprintf(stderr, "unknown option %s\n", k.c_str());
+      return 2;
+    }
+  }
+  log::set_level(log::Level::warn);
+  const auto scans = load(dir);
+  std::printf("%zu scans\n", scans.size());
+  Vec3 centre = Vec3::Zero();
+  std::size_t total = 0;
+  for (const auto& s : scans)
+    for (const auto& p : s.truth.positions) centre += p, ++total;
+  centre /= static_cast<double>(total);
+
+  // The robot's error per scan: a turn about the sensor (on the scan's +z axis, sensor_distance from
+  // the object's centre) and a shift.
+  Rng rng(seed);
+  std::vector<Eigen::Isometry3d> error;
+  std::vector<Pose> reported;
+  for (const auto& s : scans) {
+    const Vec3 axis = s.pose.linear() * Vec3::UnitZ();
+    const Vec3 sensor = centre + sensor_distance * axis;
+    Eigen::Isometry3d E = Eigen::Isometry3d::Identity();
+    if (sigma_t > 0 || sigma_r > 0) {
+      const Eigen::Isometry3d S{Eigen::Translation3d(sensor)};
+      Eigen::Isometry3d Rt = Eigen::Isometry3d::Identity();
+      const double angle = sigma_r * std::numbers::pi / 180.0 * rng.normal();
+      const Vec3 turn_axis = rng.unit_vector();
+      Rt.linear() = Eigen::AngleAxisd(angle, turn_axis).toRotationMatrix();
+      Vec3 t;
+      for (int c = 0; c < 3; ++c) t[c] = sigma_t * rng.normal();  // in sequence: deterministic
+      E = Eigen::Translation3d(t) * S * Rt * S.inverse();
+    }
+    error.push_back(E);
+    reported.push_back(Pose::look_at(sensor, centre, Vec3::UnitY()).transformed(E));
+  }
+
+  fs::remove_all(out);
+  ScannerSpec spec;
+  spec.near = 0.5 * sensor_distance;
+  spec.far = 1.5 * sensor_distance;
+  spec.noise.magnitude = 0.0;
+  Rig rig;
+  session::SessionOptions opt;
+  opt.max_iterations = 1;
+  opt.global_registration = global;
+  opt.multiway.robot_translation_sigma = prior_scale * (sigma_t > 0 ? sigma_t : 0.003);
+  opt.multiway.robot_rotation_sigma_deg = prior_scale * (sigma_r > 0 ? sigma_r : 1.0);
+  if (info_points > 0) opt.multiway.information_points = info_points;
+  if (robust >= 0) opt.multiway.robust_scale = robust;
+  if (trim > 0) opt.multiway.icp.trim_fraction = trim;
+  if (rounds > 0) opt.multiway.rounds = rounds;
+  if (incidence > 0) opt.multiway.max_incidence_deg = incidence;
+  if (power >= 0) opt.multiway.incidence_gain = power;
+  if (disagree > 0) opt.multiway.max_disagreement = disagree;
+  if (min_overlap > 0) opt.multiway.min_overlap = min_overlap;
+  opt.consolidate.wlop.noise_hint = 1.0;  // a real scanner: noisy
+  if (depth > 0) opt.poisson.depth = depth;
+  auto sess = session::Session::create(out, spec, rig, opt);
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    PointCloud c = scans[i].truth;
+    for (auto& p : c.positions) p = error[i] * p;
+    sess.add_scan(c, reported[i]);
+  }
+  const auto step = sess.next_views();
+  const auto& rec = *step.reconstruction;
+
+  // Per-scan: the registered points against their true places, after the best global rigid fit.
+  std::vector<Eigen::Isometry3d> corr;
+  for (const auto& r : sess.scans()) corr.push_back(r.correction);
+  std::size_t m = 0;
+  for (const auto& s : scans) m += (s.truth.size() + 19) / 20;
+  Eigen::Matrix3Xd A(3, static_cast<Eigen::Index>(m)), B(3, static_cast<Eigen::Index>(m));
+  Eigen::Index col = 0;
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    for (std::size_t k = 0; k < scans[i].truth.size(); k += 20, ++col) {
+      A.col(col) = corr[i] * (error[i] * scans[i].truth.positions[k]);
+      B.col(col) = scans[i].truth.positions[k];
+    }
+  const Eigen::Isometry3d G(Eigen::Matrix4d(Eigen::umeyama(A, B, false)));
+  std::vector<double> scan_before, scan_after;
+  {
+    // "Before": the reported placement, also after its own best global fit.
+    for (std::size_t i = 0, c2 = 0; i < scans.size(); ++i)
+      for (std::size_t k = 0; k < scans[i].truth.size(); k += 20, ++c2)
+        A.col(static_cast<Eigen::Index>(c2)) = error[i] * scans[i].truth.positions[k];
+    const Eigen::Isometry3d G0(Eigen::Matrix4d(Eigen::umeyama(A, B, false)));
+    for (std::size_t i = 0; i < scans.size(); ++i) {
+      std::vector<double> b, a;
+      for (const auto& p : scans[i].truth.positions) {
+        b.push_back((G0 * (error[i] * p) - p).norm());
+        a.push_back((G * (corr[i] * (error[i] * p)) - p).norm());
+      }
+      scan_before.push_back(median(b));
+      scan_after.push_back(median(a));
+    }
+  }
+
+  // The mesh: rigidly fitted to the true points (ICP of its vertices), then the true points' distances.
+  PointCloud truth_all;
+  for (const auto& s : scans)
+    for (std::size_t k = 0; k < s.truth.size(); k += 4) truth_all.positions.push_back(s.truth.positions[k]);
+  PointCloud verts;
+  verts.positions = rec.mesh.vertices;
+  registration::IcpOptions io;
+  io.point_to_plane = false;
+  io.max_correspondence_distance = 0.003;
+  io.max_source_points = 50000;
+  io.max_iterations = 60;
+  const auto fit = registration::icp(verts, truth_all, {}, io, G);
+  TriangleMesh mesh = rec.mesh;
+  for (auto& v : mesh.vertices) v = fit.transform * v;
+  const eval::MeshDistance md(mesh, "poisson mesh");
+  const auto dist = md.distances(truth_all.positions);
+  const double mesh_median = median(dist);
+  const double far_share =
+      static_cast<double>(std::count_if(dist.begin(), dist.end(), [](double x) { return x > 0.0005; })) /
+      static_cast<double>(dist.size());
+
+  if (std::getenv("REALSCAN_DEBUG"))
+    for (std::size_t i = 0; i < scans.size(); ++i) {
+      const Eigen::Isometry3d Rz = G * corr[i] * error[i];
+      const Eigen::AngleAxisd aa(Rz.linear());
+      std::printf("residual %zu: %.4f deg about (%.2f %.2f %.2f), t %.3f %.3f %.3f mm\n", i,
+                  aa.angle() * 180 / std::numbers::pi, aa.axis().x(), aa.axis().y(), aa.axis().z(),
+                  1e3 * Rz.translation().x(), 1e3 * Rz.translation().y(), 1e3 * Rz.translation().z());
+    }
+  if (std::getenv("REALSCAN_DEBUG")) {
+    // Self-consistency: median nearest-neighbour distance between ring neighbours (within 5 mm).
+    auto consistency = [&](auto place) {
+      std::vector<double> med;
+      for (std::size_t i = 0; i < scans.size(); ++i) {
+        const std::size_t j = (i + 1) % scans.size();
+        std::vector<Vec3> pj;
+        for (const auto& p : scans[j].truth.positions) pj.push_back(place(j, p));
+        const registration::NearestNeighbors nn(pj);
+        std::vector<double> d;
+        for (std::size_t k = 0; k < scans[i].truth.size(); k += 5) {
+          double d2 = 0;
+          nn.nearest(place(i, scans[i].truth.positions[k]), &d2);
+          if (d2 < 25e-6) d.push_back(std::sqrt(d2));
+        }
+        med.push_back(median(d));
+      }
+      return median(med);
+    };
+    std::printf("ring consistency: conf poses %.4f mm, registered %.4f mm\n",
+                1e3 * consistency([&](std::size_t, const Vec3& p) { return p; }),
+                1e3 * consistency([&](std::size_t i, const Vec3& p) { return Vec3(corr[i] * (error[i] * p)); }));
+  }
+  std::printf("%-26s %10s %10s %8s\n", "scan", "before mm", "after mm", "flagged");
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    std::printf("%-26s %10.3f %10.3f %8s\n", scans[i].name.c_str(), 1e3 * scan_before[i], 1e3 * scan_after[i],
+                sess.scans()[i].excluded ? "yes" : "");
+  const auto& g = sess.iterations().back().registration;
+  std::printf("global registration: %s\n",
+              g.is_object() ? fmt::format("{} pairs used, {} dropped, {:.2f} s", g.value("pairs_used", 0),
+                                          g.value("pairs_dropped", 0), g.value("seconds", 0.0))
+                                  .c_str()
+                            : "off");
+  std::printf("median per-scan error after: %.3f mm (max %.3f)\n", 1e3 * median(scan_after),
+              1e3 * *std::max_element(scan_after.begin(), scan_after.end()));
+  std::printf("mesh: median distance of the true points %.3f mm, %.1f %% beyond 0.5 mm (%zu vertices)\n",
+              1e3 * mesh_median, 100.0 * far_share, mesh.vertices.size());
+  nlohmann::json j = {{"sigma_t", sigma_t},
+                      {"sigma_r_deg", sigma_r},
+                      {"seed", seed},
+                      {"global", global},
+                      {"scan_before_mm", scan_before},
+                      {"scan_after_mm", scan_after},
+                      {"mesh_median_mm", 1e3 * mesh_median},
+                      {"mesh_far_share", far_share},
+                      {"registration", g},
+                      {"seconds", sess.iterations().back().seconds}};
+  for (auto& v : j["scan_before_mm"]) v = v.get<double>() * 1e3;
+  for (auto& v : j["scan_after_mm"]) v = v.get<double>() * 1e3;
+  if (!json_out.empty()) write_text_atomic(json_out, j.dump(1));
+  return 0;
+}

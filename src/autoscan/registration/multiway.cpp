@@ -1,0 +1,570 @@
+#include "autoscan/registration/multiway.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <set>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/core/timer.hpp"
+#include "autoscan/registration/nearest.hpp"
+#include "autoscan/registration/pose_graph.hpp"
+
+namespace autoscan::registration {
+
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+std::vector<Vec3> stride_sample(const std::vector<Vec3>& pts, std::size_t cap, const Vec3& shift) {
+  std::vector<Vec3> out;
+  if (pts.empty() || cap == 0) return out;
+  const std::size_t stride = std::max<std::size_t>(1, (pts.size() + cap - 1) / cap);
+  out.reserve(pts.size() / stride + 1);
+  for (std::size_t i = 0; i < pts.size(); i += stride) out.push_back(pts[i] - shift);
+  return out;
+}
+
+// One scan as the registration sees it, in the centred frame at its reported pose.
+struct Prepared {
+  std::vector<Vec3> sample;    // ICP source, overlap test
+  PointCloud target;           // with normals
+  std::vector<double> weight;  // per target point: cos(incidence)^power (docs/registration.md)
+  std::vector<double> sample_weight;
+  std::unique_ptr<NearestNeighbors> tree;
+  double spacing = 0.0;  // median nearest-neighbour distance within the target
+  double range = 0.0;    // distance from the sensor to the scan's centroid
+  Vec3 sensor = Vec3::Zero();
+  AABB box;
+};
+
+Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, const MultiwayOptions& o) {
+  Prepared p;
+  p.sensor = sensor - c;
+  PointCloud all;
+  all.positions = stride_sample(scan.positions, o.target_points, c);
+  if (scan.has_normals()) {
+    const std::size_t stride = std::max<std::size_t>(1, (scan.size() + o.target_points - 1) / o.target_points);
+    for (std::size_t i = 0; i < scan.size(); i += stride) all.normals.push_back(scan.normals[i]);
+  } else {
+    all.normals = estimate_normals(all.positions, p.sensor, o.normal_k);
+  }
+  // Grazing points are the least accurate (a range scanner's depth error grows with the incidence
+  // angle, and silhouettes curl): they stay out of the registration.
+  const double min_cos = std::cos(o.max_incidence_deg * kDegToRad);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const Vec3 ray = p.sensor - all.positions[i];
+    const double len = ray.norm();
+    const double cosi = len > 0.0 ? std::abs(all.normals[i].dot(ray)) / len : 1.0;
+    if (cosi < min_cos) continue;
+    p.target.positions.push_back(all.positions[i]);
+    p.target.normals.push_back(all.normals[i]);
+    // Depth precision 1/σ², σ ∝ 1 + gain·tan(incidence) (the scanner noise model's incidence term).
+    const double tan_i = std::sqrt(std::max(0.0, 1.0 - cosi * cosi)) / std::max(cosi, 1e-6);
+    const double sigma = 1.0 + o.incidence_gain * tan_i;
+    p.weight.push_back(1.0 / (sigma * sigma));
+  }
+  const std::size_t stride = std::max<std::size_t>(1, (p.target.size() + o.sample_points - 1) / o.sample_points);
+  for (std::size_t i = 0; i < p.target.size(); i += stride) {
+    p.sample.push_back(p.target.positions[i]);
+    p.sample_weight.push_back(p.weight[i]);
+  }
+  p.tree = std::make_unique<NearestNeighbors>(p.target.positions);
+  p.box = AABB::of(p.target.positions);
+  // Spacing: median distance to the nearest other point over a few hundred samples.
+  std::vector<double> d;
+  std::vector<std::size_t> idx;
+  std::vector<double> d2;
+  const std::size_t step = std::max<std::size_t>(1, p.target.size() / 500);
+  for (std::size_t i = 0; i < p.target.size(); i += step)
+    if (p.tree->knn(p.target.positions[i], 2, idx, d2) == 2) d.push_back(std::sqrt(d2[1]));
+  if (!d.empty()) {
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+    p.spacing = d[d.size() / 2];
+  }
+  Vec3 mean = Vec3::Zero();
+  for (const auto& q : p.sample) mean += q;
+  if (!p.sample.empty()) mean /= static_cast<double>(p.sample.size());
+  p.range = (mean - p.sensor).norm();
+  return p;
+}
+
+// Share of a's samples (moved by Xa) with a point of b (moved by Xb) within d.
+double overlap_share(const Prepared& a, const Eigen::Isometry3d& Xa, const Prepared& b, const Eigen::Isometry3d& Xb,
+                     double d) {
+  if (a.sample.empty() || b.target.empty()) return 0.0;
+  const Eigen::Isometry3d M = Xb.inverse() * Xa;
+  const std::size_t step = std::max<std::size_t>(1, a.sample.size() / 1000);
+  std::size_t hit = 0, n = 0;
+  for (std::size_t i = 0; i < a.sample.size(); i += step, ++n) {
+    double d2 = 0.0;
+    b.tree->nearest(M * a.sample[i], &d2);
+    if (d2 <= d * d) ++hit;
+  }
+  return n == 0 ? 0.0 : static_cast<double>(hit) / static_cast<double>(n);
+}
+
+struct PairWork {
+  MultiwayPair report;
+  Eigen::Isometry3d measurement = Eigen::Isometry3d::Identity();  // Z_ij
+  Mat6 information = Mat6::Zero();
+  Mat6 normal_matrix = Mat6::Zero();  // Σ J Jᵀ (unscaled) for the disagreement measure
+  std::size_t n = 0;
+  bool ok = false;
+};
+
+// Pairwise ICP of scan i (moved by Xi) to scan j (moved by Xj), then the normal matrix at the optimum.
+void register_pair(const Prepared& a, const Eigen::Isometry3d& Xi, const Prepared& b, const Eigen::Isometry3d& Xj,
+                   double max_dist, const MultiwayOptions& o, PairWork& w) {
+  PointCloud src;
+  src.positions.reserve(a.sample.size());
+  for (const auto& p : a.sample) src.positions.push_back(Xi * p);
+  PointCloud tgt;
+  tgt.positions.reserve(b.target.size());
+  tgt.normals.reserve(b.target.size());
+  for (std::size_t k = 0; k < b.target.size(); ++k) {
+    tgt.positions.push_back(Xj * b.target.positions[k]);
+    tgt.normals.push_back(Xj.linear() * b.target.normals[k]);
+  }
+  IcpOptions io = o.icp;
+  io.max_correspondence_distance = max_dist;
+  io.max_source_points = 0;
+  io.weights_are_precisions = true;
+  const IcpResult r = icp(src, tgt, b.weight, io, Eigen::Isometry3d::Identity(), {}, a.sample_weight);
+  w.report.rms_before = r.rms_before;
+  w.report.rms_after = r.rms_after;
+  w.report.correspondences = r.correspondences;
+  if (r.degenerate || r.correspondences < 30) {
+    w.report.dropped = "degenerate";
+    return;
+  }
+  const Eigen::Isometry3d dT = r.transform;  // source moved by Xi → onto target moved by Xj
+  w.measurement = Xj.inverse() * dT * Xi;
+  // Normal matrix Σ J Jᵀ, J = [y × n, n], over the pairs that truly overlap at the optimum: within
+  // `tight` (three point spacings) of each other. A pair whose overlap at that distance is below
+  // min_overlap is no pair (loose candidates on opposite sides of a small object, or ICP lost).
+  const double tight = 3.0 * std::max(a.spacing, b.spacing);
+  const Eigen::Isometry3d toB = Xj.inverse() * dT * Xi;  // source sample → b's own frame
+  Mat6 H = Mat6::Zero();
+  std::size_t n = 0;
+  for (std::size_t q = 0; q < a.sample.size(); ++q) {
+    const Vec3& p = a.sample[q];
+    double d2 = 0.0;
+    const Vec3 yb = toB * p;
+    const std::size_t k = b.tree->nearest(yb, &d2);
+    if (k >= b.target.size() || d2 > tight * tight) continue;
+    const Vec3 nb = b.target.normals[k];
+    const Vec3 y = Xj * yb;
+    const Vec3 nw = Xj.linear() * nb;
+    Vec6 J;
+    J.head<3>() = y.cross(nw);
+    J.tail<3>() = nw;
+    H.noalias() += J * J.transpose() / (1.0 / a.sample_weight[q] + 1.0 / b.weight[k]);
+    ++n;
+  }
+  // The overlap share: of the smaller scan's points (all incidences below max_incidence_deg), those
+  // within `tight` of the other scan at the optimum.
+  auto share = [&](const Prepared& from, const Eigen::Isometry3d& M, const Prepared& to) {
+    const std::size_t step = std::max<std::size_t>(1, from.target.size() / 1500);
+    std::size_t hit = 0, cnt = 0;
+    for (std::size_t q = 0; q < from.target.size(); q += step, ++cnt) {
+      double d2 = 0.0;
+      to.tree->nearest(M * from.target.positions[q], &d2);
+      if (d2 <= tight * tight) ++hit;
+    }
+    return cnt == 0 ? 0.0 : static_cast<double>(hit) / static_cast<double>(cnt);
+  };
+  w.report.overlap = a.target.size() <= b.target.size() ? share(a, toB, b) : share(b, toB.inverse(), a);
+  if (n < 30 || w.report.overlap < o.min_overlap || r.rms_after > tight) {
+    w.report.dropped = "no overlap";
+    return;
+  }
+  // Information: the normal matrix of the pair's correspondences over their noise, counted as
+  // `information_points` independent points (neighbouring points of a scan share the scanner's
+  // calibration and smoothing errors: weighted as thousands of independent points, every pair would
+  // sit far out in the robust loss's tail and the priors would win).
+  const double sigma = std::max(r.rms_after, 0.05 * std::max(a.spacing, b.spacing));
+  w.normal_matrix = H;
+  w.n = n;
+  w.information = H * (o.information_points / static_cast<double>(n)) / (sigma * sigma);
+  w.ok = true;
+}
+
+double disagreement(const PairWork& w, const Eigen::Isometry3d& Xi, const Eigen::Isometry3d& Xj) {
+  const Vec6 e = edge_error(Xi, Xj, w.measurement);
+  return std::sqrt(std::max(0.0, e.dot(w.normal_matrix * e)) / static_cast<double>(std::max<std::size_t>(1, w.n)));
+}
+
+Eigen::Isometry3d to_centred(const Eigen::Isometry3d& X, const Vec3& c) {
+  const Eigen::Isometry3d S{Eigen::Translation3d(c)};
+  return S.inverse() * X * S;
+}
+Eigen::Isometry3d from_centred(const Eigen::Isometry3d& X, const Vec3& c) {
+  const Eigen::Isometry3d S{Eigen::Translation3d(c)};
+  return S * X * S.inverse();
+}
+
+}  // namespace
+
+void MultiwayOptions::validate(const std::string& what) const {
+  AUTOSCAN_REQUIRE(std::isfinite(robot_translation_sigma) && robot_translation_sigma > 0.0,
+                   "{}: robot_translation_sigma must be finite and positive (got {})", what, robot_translation_sigma);
+  AUTOSCAN_REQUIRE(
+      std::isfinite(robot_rotation_sigma_deg) && robot_rotation_sigma_deg > 0.0 && robot_rotation_sigma_deg < 90.0,
+      "{}: robot_rotation_sigma_deg must be in (0, 90) (got {})", what, robot_rotation_sigma_deg);
+  AUTOSCAN_REQUIRE(min_overlap > 0.0 && min_overlap <= 1.0, "{}: min_overlap must be in (0, 1] (got {})", what,
+                   min_overlap);
+  AUTOSCAN_REQUIRE(std::isfinite(overlap_distance) && overlap_distance >= 0.0,
+                   "{}: overlap_distance must be finite and >= 0 (got {})", what, overlap_distance);
+  AUTOSCAN_REQUIRE(sample_points >= 100, "{}: sample_points must be at least 100 (got {})", what, sample_points);
+  AUTOSCAN_REQUIRE(target_points >= 100, "{}: target_points must be at least 100 (got {})", what, target_points);
+  AUTOSCAN_REQUIRE(normal_k >= 3 && normal_k <= 200, "{}: normal_k must be in [3, 200] (got {})", what, normal_k);
+  AUTOSCAN_REQUIRE(max_incidence_deg > 0.0 && max_incidence_deg <= 90.0,
+                   "{}: max_incidence_deg must be in (0, 90] (got {})", what, max_incidence_deg);
+  AUTOSCAN_REQUIRE(std::isfinite(incidence_gain) && incidence_gain >= 0.0,
+                   "{}: incidence_gain must be finite and >= 0 (got {})", what, incidence_gain);
+  AUTOSCAN_REQUIRE(rounds >= 1 && rounds <= 20, "{}: rounds must be in [1, 20] (got {})", what, rounds);
+  AUTOSCAN_REQUIRE(std::isfinite(max_disagreement) && max_disagreement > 0.0,
+                   "{}: max_disagreement must be finite and positive (got {})", what, max_disagreement);
+  AUTOSCAN_REQUIRE(std::isfinite(outlier_sigma) && outlier_sigma > 0.0,
+                   "{}: outlier_sigma must be finite and positive (got {})", what, outlier_sigma);
+  AUTOSCAN_REQUIRE(std::isfinite(robust_scale) && robust_scale >= 0.0,
+                   "{}: robust_scale must be finite and >= 0 (got {})", what, robust_scale);
+  AUTOSCAN_REQUIRE(std::isfinite(information_points) && information_points > 0.0,
+                   "{}: information_points must be finite and positive (got {})", what, information_points);
+}
+
+std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k) {
+  std::vector<Vec3> normals(points.size(), Vec3::UnitZ());
+  if (points.size() < 3) return normals;
+  const NearestNeighbors nn(points);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
+    std::vector<std::size_t> idx;
+    std::vector<double> d2;
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const std::size_t n = nn.knn(points[i], static_cast<std::size_t>(k), idx, d2);
+      Vec3 mean = Vec3::Zero();
+      for (std::size_t m = 0; m < n; ++m) mean += points[idx[m]];
+      mean /= static_cast<double>(n);
+      Mat3 C = Mat3::Zero();
+      for (std::size_t m = 0; m < n; ++m) {
+        const Vec3 d = points[idx[m]] - mean;
+        C.noalias() += d * d.transpose();
+      }
+      Eigen::SelfAdjointEigenSolver<Mat3> es(C);
+      Vec3 nrm = es.eigenvectors().col(0);
+      if (!nrm.allFinite() || nrm.squaredNorm() < 0.5) nrm = (sensor - points[i]).normalized();
+      if (nrm.dot(sensor - points[i]) < 0.0) nrm = -nrm;
+      normals[i] = nrm;
+    }
+  });
+  return normals;
+}
+
+MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
+                                 std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
+                                 const MultiwayOptions& o, ProgressCallback progress) {
+  Stopwatch clock;
+  o.validate();
+  const std::size_t n = scans.size();
+  AUTOSCAN_REQUIRE(sensors.size() == n, "multiway: {} sensor positions for {} scans", sensors.size(), n);
+  AUTOSCAN_REQUIRE(initial.empty() || initial.size() == n, "multiway: {} initial corrections for {} scans",
+                   initial.size(), n);
+  AUTOSCAN_REQUIRE(free_in.empty() || free_in.size() == n, "multiway: {} free flags for {} scans", free_in.size(), n);
+  for (std::size_t i = 0; i < n; ++i) {
+    scans[i].validate(fmt::format("multiway scan {}", i));
+    AUTOSCAN_REQUIRE(sensors[i].allFinite(), "multiway: sensor position of scan {} is not finite", i);
+    if (!initial.empty())
+      AUTOSCAN_REQUIRE(initial[i].matrix().allFinite(), "multiway: initial correction of scan {} is not finite", i);
+  }
+  Progress prog(std::move(progress), "multiway registration");
+  MultiwayResult res;
+  res.corrections.assign(n, Eigen::Isometry3d::Identity());
+  if (!initial.empty()) std::copy(initial.begin(), initial.end(), res.corrections.begin());
+  res.scans.resize(n);
+  std::vector<char> free(n, 1);
+  if (!free_in.empty()) std::copy(free_in.begin(), free_in.end(), free.begin());
+  for (std::size_t i = 0; i < n; ++i)
+    if (scans[i].empty()) free[i] = 0;
+
+  // Centre of the work frame: the mean of the scans' centroids.
+  Vec3 c = Vec3::Zero();
+  std::size_t nc = 0;
+  for (const auto& s : scans)
+    if (!s.empty()) {
+      Vec3 m = Vec3::Zero();
+      for (const auto& p : s.positions) m += p;
+      c += m / static_cast<double>(s.size());
+      ++nc;
+    }
+  if (nc == 0 || std::none_of(free.begin(), free.end(), [](char f) { return f != 0; })) {
+    res.seconds = clock.seconds();
+    return res;
+  }
+  c /= static_cast<double>(nc);
+
+  // Boxes of every scan at its current correction (cheap) decide which scans are worth preparing.
+  std::vector<AABB> boxes(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < scans[i].size(); k += std::max<std::size_t>(1, scans[i].size() / 2000))
+      boxes[i].extend(res.corrections[i] * scans[i].positions[k] - c);
+  const double sigma_r = o.robot_rotation_sigma_deg * kDegToRad;
+  auto reach = [&](std::size_t i) {
+    const double range = (boxes[i].center() - (sensors[i] - c)).norm();
+    return o.overlap_distance > 0.0 ? o.overlap_distance : 3.0 * (o.robot_translation_sigma + sigma_r * range);
+  };
+  auto boxes_touch = [&](std::size_t i, std::size_t j) {
+    const double pad = reach(i) + reach(j);
+    for (int a = 0; a < 3; ++a)
+      if (boxes[i].min[a] - pad > boxes[j].max[a] || boxes[j].min[a] - pad > boxes[i].max[a]) return false;
+    return true;
+  };
+  std::vector<char> candidate(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (free[i])
+      for (std::size_t j = 0; j < n; ++j)
+        if (!scans[j].empty() && (j == i || boxes_touch(i, j))) candidate[j] = 1;
+  std::vector<std::size_t> cand;
+  for (std::size_t i = 0; i < n; ++i)
+    if (candidate[i]) cand.push_back(i);
+  std::vector<Prepared> prep(n);
+  tbb::parallel_for(std::size_t{0}, cand.size(), [&](std::size_t k) {
+    const std::size_t i = cand[k];
+    prep[i] = prepare(scans[i], sensors[i], c, o);
+  });
+  std::vector<Eigen::Isometry3d> X(n);
+  for (std::size_t i = 0; i < n; ++i) X[i] = to_centred(res.corrections[i], c);
+  auto pair_distance = [&](std::size_t i, std::size_t j) {
+    if (o.overlap_distance > 0.0) return o.overlap_distance;
+    const double sp = std::max(prep[i].spacing, prep[j].spacing);
+    return 3.0 * sp + 3.0 * (o.robot_translation_sigma + sigma_r * std::max(prep[i].range, prep[j].range));
+  };
+
+  // Pair selection: free scans against every candidate; then (free_neighbors) the anchors they
+  // overlap are freed and tested against the candidates too.
+  std::set<std::pair<std::size_t, std::size_t>> pair_set;
+  std::vector<double> pair_overlap;
+  std::map<std::pair<std::size_t, std::size_t>, double> overlap_of;
+  auto test_from = [&](const std::vector<std::size_t>& from) {
+    std::vector<std::pair<std::size_t, std::size_t>> tests;
+    for (std::size_t i : from)
+      for (std::size_t j : cand)
+        if (i != j && boxes_touch(i, j)) {
+          const std::pair<std::size_t, std::size_t> key = std::minmax(i, j);
+          if (!overlap_of.contains(key) && std::find(tests.begin(), tests.end(), key) == tests.end())
+            tests.push_back(key);
+        }
+    std::vector<double> share(tests.size(), 0.0);
+    tbb::parallel_for(std::size_t{0}, tests.size(), [&](std::size_t t) {
+      const auto [i, j] = tests[t];
+      const double d = pair_distance(i, j);
+      share[t] =
+          std::max(overlap_share(prep[i], X[i], prep[j], X[j], d), overlap_share(prep[j], X[j], prep[i], X[i], d));
+    });
+    res.pairs_tested += tests.size();
+    std::vector<std::size_t> touched;
+    for (std::size_t t = 0; t < tests.size(); ++t) {
+      overlap_of[tests[t]] = share[t];
+      if (share[t] >= o.min_overlap) {
+        pair_set.insert(tests[t]);
+        touched.push_back(tests[t].first);
+        touched.push_back(tests[t].second);
+      }
+    }
+    return touched;
+  };
+  std::vector<std::size_t> free_list;
+  for (std::size_t i = 0; i < n; ++i)
+    if (free[i]) free_list.push_back(i);
+  const auto touched = test_from(free_list);
+  if (o.free_neighbors) {
+    std::vector<std::size_t> newly;
+    for (std::size_t j : touched)
+      if (!free[j]) {
+        free[j] = 1;
+        newly.push_back(j);
+      }
+    std::sort(newly.begin(), newly.end());
+    newly.erase(std::unique(newly.begin(), newly.end()), newly.end());
+    if (!newly.empty()) test_from(newly);
+  }
+  std::vector<std::pair<std::size_t, std::size_t>> pairs(pair_set.begin(), pair_set.end());
+  // Pairs between two anchors constrain nothing that moves.
+  std::erase_if(pairs, [&](const auto& p) { return !free[p.first] && !free[p.second]; });
+  for (std::size_t i = 0; i < n; ++i) {
+    res.scans[i].free = free[i] != 0;
+    res.scans[i].spacing = prep[i].spacing;
+    res.scans[i].points_used = prep[i].target.size();
+  }
+  if (!pairs.empty()) res.overlap_distance = pair_distance(pairs.front().first, pairs.front().second);
+
+  std::vector<PairWork> work(pairs.size());
+  std::vector<double> pair_dist(pairs.size());
+  for (std::size_t p = 0; p < pairs.size(); ++p) pair_dist[p] = pair_distance(pairs[p].first, pairs[p].second);
+  std::vector<char> flagged(n, 0);
+  std::vector<std::string> flag_reason(n);
+
+  for (int round = 0; round < o.rounds && !pairs.empty(); ++round) {
+    Stopwatch pclock;
+    tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
+      const auto [i, j] = pairs[p];
+      work[p] = PairWork{};
+      work[p].report.i = static_cast<int>(i);
+      work[p].report.j = static_cast<int>(j);
+      work[p].report.overlap = overlap_of.at(pairs[p]);
+      register_pair(prep[i], X[i], prep[j], X[j], pair_dist[p], o, work[p]);
+    });
+    res.seconds_pairs += pclock.seconds();
+    Stopwatch gclock;
+    std::vector<char> active(pairs.size(), 0);
+    for (std::size_t p = 0; p < pairs.size(); ++p)
+      active[p] = work[p].ok && !flagged[pairs[p].first] && !flagged[pairs[p].second];
+    std::vector<Eigen::Isometry3d> solved = X;
+    double typical_rms = 0.0;
+    for (int pass = 0; pass < 4; ++pass) {
+      std::vector<PoseGraphEdge> edges;
+      std::vector<PoseGraphPrior> priors;
+      std::vector<char> fixed(n, 1);
+      for (std::size_t p = 0; p < pairs.size(); ++p)
+        if (active[p]) {
+          edges.push_back({static_cast<int>(pairs[p].first), static_cast<int>(pairs[p].second), work[p].measurement,
+                           work[p].information});
+          for (std::size_t v : {pairs[p].first, pairs[p].second})
+            if (free[v] && !flagged[v]) fixed[v] = 0;
+        }
+      for (std::size_t i = 0; i < n; ++i)
+        if (!fixed[i]) priors.push_back({static_cast<int>(i), prep[i].sensor, o.robot_translation_sigma, sigma_r});
+      PoseGraphOptions go;
+      go.robust_scale = o.robust_scale;
+      const PoseGraphResult g = solve_pose_graph(X, fixed, edges, priors, go);
+      solved = g.poses;
+      // Drop the pairs that disagree with the solution, then the scans beyond the robot's accuracy.
+      bool changed = false;
+      // The typical residual of a pair: the median over the overlapping pairs.
+      std::vector<double> rms;
+      for (std::size_t p = 0; p < pairs.size(); ++p)
+        if (work[p].ok) rms.push_back(work[p].report.rms_after);
+      std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2), rms.end());
+      const double typical = rms.empty() ? 0.0 : rms[rms.size() / 2];
+      typical_rms = typical;
+      for (std::size_t p = 0; p < pairs.size(); ++p) {
+        if (!work[p].ok) continue;
+        work[p].report.disagreement = disagreement(work[p], solved[pairs[p].first], solved[pairs[p].second]);
+        const double limit = o.max_disagreement * std::max(typical, 0.25 * std::max(prep[pairs[p].first].spacing,
+                                                                                    prep[pairs[p].second].spacing));
+        if (active[p] && work[p].report.disagreement > limit) {
+          active[p] = 0;
+          work[p].report.dropped = "disagrees";
+          changed = true;
+        }
+      }
+      for (std::size_t k = 0; k < priors.size(); ++k) {
+        const auto i = static_cast<std::size_t>(priors[k].node);
+        res.scans[i].mahalanobis = std::sqrt(g.prior_chi2[k]);
+        if (res.scans[i].mahalanobis > o.outlier_sigma && !flagged[i]) {
+          flagged[i] = 1;
+          flag_reason[i] = fmt::format("correction {:.1f} sigma beyond the robot's accuracy", res.scans[i].mahalanobis);
+          changed = true;
+        }
+      }
+      for (std::size_t p = 0; p < pairs.size(); ++p)
+        if (active[p] && (flagged[pairs[p].first] || flagged[pairs[p].second])) {
+          active[p] = 0;
+          work[p].report.dropped = "flagged scan";
+        }
+      if (!changed) break;
+    }
+    for (std::size_t i = 0; i < n; ++i)
+      if (free[i] && !flagged[i]) X[i] = solved[i];
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      work[p].report.used = active[p] != 0;
+      if (active[p]) work[p].report.dropped.clear();
+      // The next round searches closer (every pair, also those that failed from this round's
+      // poses): four times the typical residual or three spacings, whichever is larger.
+      pair_dist[p] = std::min(pair_dist[p], std::max(4.0 * typical_rms, 3.0 * std::max(prep[pairs[p].first].spacing,
+                                                                                       prep[pairs[p].second].spacing)));
+    }
+    res.seconds_graph += gclock.seconds();
+    res.rounds = round + 1;
+    prog.report(static_cast<double>(round + 1) / o.rounds);
+  }
+
+  // A free scan that overlaps others but agrees with none of them is flagged too.
+  std::vector<int> candidate_pairs(n, 0);
+  for (const auto& w : work) {
+    if (w.ok) {  // overlapping at the optimum (whether or not it agreed with the others)
+      ++candidate_pairs[static_cast<std::size_t>(w.report.i)];
+      ++candidate_pairs[static_cast<std::size_t>(w.report.j)];
+    }
+    if (w.report.used) {
+      ++res.scans[static_cast<std::size_t>(w.report.i)].pairs_used;
+      ++res.scans[static_cast<std::size_t>(w.report.j)].pairs_used;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (free[i] && !flagged[i] && candidate_pairs[i] > 0 && res.scans[i].pairs_used == 0) {
+      flagged[i] = 1;
+      flag_reason[i] = "overlaps other scans but agrees with none";
+    }
+    res.scans[i].flagged = flagged[i] != 0;
+    res.scans[i].flag_reason = flag_reason[i];
+    if (free[i] && !flagged[i]) res.corrections[i] = from_centred(X[i], c);
+    const Eigen::Isometry3d& C = res.corrections[i];
+    res.scans[i].correction_translation = C.translation().norm();
+    res.scans[i].correction_rotation_deg = rotation_angle_deg(C);
+  }
+  for (auto& w : work) res.pairs.push_back(w.report);
+  res.seconds = clock.seconds();
+  prog.report(1.0);
+  return res;
+}
+
+nlohmann::json to_json(const MultiwayResult& r) {
+  nlohmann::json pairs = nlohmann::json::array();
+  std::size_t used = 0;
+  for (const auto& p : r.pairs) {
+    used += p.used ? 1 : 0;
+    pairs.push_back({{"i", p.i},
+                     {"j", p.j},
+                     {"overlap", p.overlap},
+                     {"rms_before", p.rms_before},
+                     {"rms_after", p.rms_after},
+                     {"correspondences", p.correspondences},
+                     {"disagreement", p.disagreement},
+                     {"used", p.used},
+                     {"dropped", p.dropped.empty() ? nlohmann::json(nullptr) : nlohmann::json(p.dropped)}});
+  }
+  nlohmann::json scans = nlohmann::json::array();
+  for (const auto& s : r.scans)
+    scans.push_back({{"free", s.free},
+                     {"flagged", s.flagged},
+                     {"flag_reason", s.flag_reason.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.flag_reason)},
+                     {"pairs_used", s.pairs_used},
+                     {"spacing", s.spacing},
+                     {"points_used", s.points_used},
+                     {"mahalanobis", s.mahalanobis},
+                     {"correction_translation", s.correction_translation},
+                     {"correction_rotation_deg", s.correction_rotation_deg}});
+  return {{"pairs_used", used},
+          {"pairs_dropped", r.pairs.size() - used},
+          {"pairs_tested", r.pairs_tested},
+          {"rounds", r.rounds},
+          {"overlap_distance", r.overlap_distance},
+          {"seconds", r.seconds},
+          {"seconds_pairs", r.seconds_pairs},
+          {"seconds_graph", r.seconds_graph},
+          {"pairs", pairs},
+          {"scans", scans}};
+}
+
+}  // namespace autoscan::registration

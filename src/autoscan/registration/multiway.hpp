@@ -1,0 +1,119 @@
+#pragma once
+// Global multi-view registration (Pulli 1999; Open3D's multiway registration; what Artec Studio
+// calls global registration): every overlapping pair of scans is registered with point-to-plane ICP
+// (icp.hpp) and a pose graph (pose_graph.hpp) over all scans reconciles the pairwise results with
+// the poses the robot reported, weighted by the robot's declared accuracy. Docs: docs/registration.md.
+//
+// The scans come in the world frame of their reported poses. The result is one correction per scan
+// (world frame; the registered scan is correction * scan). Free scans move; the others are anchors
+// that keep their initial correction (a session frees the newest scans and the scans they overlap,
+// so an iteration's cost grows with the new scans and their neighbours, not with the square of all).
+//
+// Rounds: pairwise ICP from the current corrections → pose graph → pairs that disagree with the
+// solution (their implied displacement beyond `max_disagreement` × the pair's own residual) are
+// dropped and the graph solved again; the next round re-runs the pairs from the new corrections with
+// a tighter correspondence distance. A free scan whose solved correction lies beyond
+// `outlier_sigma` of the robot's accuracy (Mahalanobis, 6 dof), or that overlaps other scans but
+// agrees with none of them, is flagged: a session keeps it out of the model rather than blurring it.
+// Deterministic: every reduction is in index order; the pose graph is solved single-threaded.
+#include <Eigen/Geometry>
+#include <nlohmann/json_fwd.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/progress.hpp"
+#include "autoscan/registration/icp.hpp"
+
+namespace autoscan::registration {
+
+struct MultiwayOptions {
+  /// The robot's declared accuracy (1σ): position of the tool (world units) and its orientation
+  /// (degrees, a turn about the sensor position). The priors of the pose graph; real robots: a few
+  /// mm and a degree or less.
+  double robot_translation_sigma = 0.003;
+  double robot_rotation_sigma_deg = 1.0;
+  /// Candidate pairs: at least this share of one scan's samples has a point of the other within
+  /// `overlap_distance`; a pair is used when, after its ICP, this share lies within three point
+  /// spacings of the other scan.
+  double min_overlap = 0.2;
+  /// 0 = automatic: 3 point spacings plus 3σ of the robot's pose error at the scan's range.
+  double overlap_distance = 0.0;
+  std::size_t sample_points = 3000;   ///< ICP source / overlap test points per scan (stride sampling)
+  std::size_t target_points = 30000;  ///< ICP target points per scan (with normals)
+  int normal_k = 12;                  ///< neighbours for PCA normals when a scan carries none
+  /// Points seen at a larger angle between their normal and the ray to the sensor stay out of the
+  /// registration: their depth is the least accurate (docs/registration.md).
+  double max_incidence_deg = 80.0;
+  /// Quality weighting: a point's depth σ grows as 1 + incidence_gain · tan(incidence) (the
+  /// scanner noise model's incidence term, NoiseSpec::depth_incidence_gain), a pair of points weighs
+  /// 1/(σ_a² + σ_b²). A range scanner's depth is least accurate, and biased, at grazing angles
+  /// (docs/registration.md: measured on the real dragon_stand scans).
+  double incidence_gain = 0.0;
+  int rounds = 3;                 ///< pairwise ICP + graph solve rounds
+  double max_disagreement = 3.0;  ///< drop a pair whose implied displacement exceeds this × its RMS
+  double outlier_sigma = 5.0;     ///< flag a scan whose correction is beyond this many σ (Mahalanobis)
+  bool free_neighbors = true;     ///< also free the anchors that overlap a free scan
+  double robust_scale = 3.0;      ///< PoseGraphOptions::robust_scale
+  /// A pair's information is its ICP normal matrix H (Σ J Jᵀ over its n overlapping points) over
+  /// its residual², scaled to this many independent points: H · (information_points / n) / rms².
+  /// Neighbouring points of a scan are not independent (shared calibration and smoothing errors).
+  double information_points = 100.0;
+  IcpOptions icp;  ///< pairwise ICP (max_correspondence_distance is set per round)
+
+  /// Throws InputError naming the option for values out of range.
+  void validate(const std::string& what = "multiway") const;
+};
+
+struct MultiwayPair {
+  int i = 0, j = 0;         ///< source and target scan (indices into the input)
+  double overlap = 0.0;     ///< the overlap share that selected the pair
+  double rms_before = 0.0;  ///< point-to-plane RMS at the corrections the round started from
+  double rms_after = 0.0;   ///< at the pair's own ICP optimum
+  std::size_t correspondences = 0;
+  double disagreement = 0.0;  ///< RMS displacement the graph's solution implies against the pair's optimum
+  bool used = false;          ///< in the final graph
+  std::string dropped;        ///< why not: "disagrees", "degenerate", "flagged scan"
+};
+
+struct MultiwayScanReport {
+  bool free = false;
+  bool flagged = false;  ///< kept out: correction beyond the robot's accuracy, or no agreeing pair
+  std::string flag_reason;
+  int pairs_used = 0;
+  double spacing = 0.0;         ///< median point spacing of the scan's registration sample
+  std::size_t points_used = 0;  ///< points of the scan the registration used (incidence cut)
+  double mahalanobis = 0.0;     ///< of the correction against the robot's accuracy (6 dof)
+  double correction_translation = 0.0;
+  double correction_rotation_deg = 0.0;
+};
+
+struct MultiwayResult {
+  std::vector<Eigen::Isometry3d> corrections;  ///< one per scan (anchors keep their initial one)
+  std::vector<MultiwayScanReport> scans;
+  std::vector<MultiwayPair> pairs;  ///< of the last round
+  std::size_t pairs_tested = 0;     ///< overlap tests run (all rounds)
+  int rounds = 0;
+  double overlap_distance = 0.0;  ///< of the first round
+  double seconds = 0.0;
+  double seconds_pairs = 0.0, seconds_graph = 0.0;
+};
+
+/// Registers `scans` to each other.
+/// @param scans       #N scans, world frame of the reported pose
+/// @param sensors     #N sensor positions (the pivots of the robot's rotation error; normals of
+///                    scans without normals are oriented towards them)
+/// @param initial     #N starting corrections (empty: identity)
+/// @param free        #N flags; empty: all free
+/// Throws InputError for size mismatches or invalid options.
+MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
+                                 std::span<const Eigen::Isometry3d> initial, std::span<const char> free,
+                                 const MultiwayOptions& options = {}, ProgressCallback progress = {});
+
+nlohmann::json to_json(const MultiwayResult& r);
+
+/// PCA normals (k nearest neighbours) of `points`, each turned towards `sensor`.
+std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k);
+
+}  // namespace autoscan::registration

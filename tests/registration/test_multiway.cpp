@@ -1,0 +1,256 @@
+// Pose graph and global multi-view registration against oracles: exact synthetic graphs, and scans
+// of an analytic surface with injected robot pose errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+#include <numbers>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/random.hpp"
+#include "autoscan/registration/multiway.hpp"
+#include "autoscan/registration/pose_graph.hpp"
+#include "support/bumpy.hpp"
+
+using namespace autoscan;
+using namespace autoscan::registration;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+Eigen::Isometry3d rigid(double angle_deg, const Vec3& axis, const Vec3& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle_deg * kPi / 180.0, axis.normalized()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+Eigen::Isometry3d random_rigid(Rng& rng, double max_deg, double max_t) {
+  return rigid(rng.uniform(-max_deg, max_deg), rng.unit_vector(),
+               Vec3(rng.uniform(-max_t, max_t), rng.uniform(-max_t, max_t), rng.uniform(-max_t, max_t)));
+}
+
+double pose_distance(const Eigen::Isometry3d& A, const Eigen::Isometry3d& B) {
+  return (A.matrix() - B.matrix()).cwiseAbs().maxCoeff();
+}
+
+struct Scene {
+  std::vector<PointCloud> truth;  // world frame, true placement
+  std::vector<PointCloud> scans;  // at the reported (wrong) pose
+  std::vector<Vec3> sensors;
+  std::vector<Eigen::Isometry3d> error;  // scans = error * truth
+};
+
+Scene make_scene(int count, double sigma_t, double sigma_r_deg, std::uint64_t seed) {
+  Scene s;
+  Rng rng(seed);
+  for (int k = 0; k < count; ++k) {
+    const Vec3 sensor = test::ring_sensor(k, count);
+    PointCloud t = test::bumpy_scan(sensor, 30000, 0.0005, seed + 100 + static_cast<std::uint64_t>(k));
+    const Eigen::Isometry3d E = test::robot_error(sensor, sigma_t, sigma_r_deg, rng);
+    PointCloud w = t;
+    for (auto& p : w.positions) p = E * p;
+    s.truth.push_back(std::move(t));
+    s.scans.push_back(std::move(w));
+    s.sensors.push_back(sensor);
+    s.error.push_back(E);
+  }
+  return s;
+}
+
+// Median over scans of the RMS distance between each registered scan point and its true place, after
+// the one rigid motion that best fits all registered scans to the truth (closed form, known pairs).
+std::vector<double> per_scan_error(const Scene& s, const std::vector<Eigen::Isometry3d>& corr, int skip = -1) {
+  Eigen::Matrix3Xd A, B;
+  std::size_t total = 0;
+  for (std::size_t k = 0; k < s.truth.size(); ++k)
+    if (static_cast<int>(k) != skip) total += (s.truth[k].size() + 9) / 10;
+  A.resize(3, static_cast<Eigen::Index>(total));
+  B.resize(3, static_cast<Eigen::Index>(total));
+  Eigen::Index col = 0;
+  for (std::size_t k = 0; k < s.truth.size(); ++k)
+    for (std::size_t i = 0; static_cast<int>(k) != skip && i < s.truth[k].size(); i += 10, ++col) {
+      A.col(col) = corr[k] * s.scans[k].positions[i];
+      B.col(col) = s.truth[k].positions[i];
+    }
+  const Eigen::Matrix4d G = Eigen::umeyama(A, B, false);
+  Eigen::Isometry3d g(G);
+  std::vector<double> err;
+  for (std::size_t k = 0; k < s.truth.size(); ++k) {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < s.truth[k].size(); ++i)
+      sum += (g * (corr[k] * s.scans[k].positions[i]) - s.truth[k].positions[i]).squaredNorm();
+    err.push_back(std::sqrt(sum / static_cast<double>(s.truth[k].size())));
+  }
+  return err;
+}
+
+}  // namespace
+
+TEST(PoseGraph, SolvesExactSyntheticGraphTo1e6) {
+  Rng rng(7);
+  const int n = 6;
+  std::vector<Eigen::Isometry3d> truth;
+  for (int i = 0; i < n; ++i) truth.push_back(random_rigid(rng, 25.0, 0.2));
+  std::vector<PoseGraphEdge> edges;
+  for (int i = 0; i < n; ++i)
+    for (int j : {i + 1, i + 2}) {
+      if (j >= n) continue;
+      PoseGraphEdge e;
+      e.from = i;
+      e.to = j;
+      e.measurement = truth[static_cast<std::size_t>(j)].inverse() * truth[static_cast<std::size_t>(i)];
+      Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Random();
+      e.information = M * M.transpose() + Eigen::Matrix<double, 6, 6>::Identity();
+      edges.push_back(e);
+    }
+  std::vector<Eigen::Isometry3d> initial(n, Eigen::Isometry3d::Identity());
+  initial[0] = truth[0];
+  std::vector<char> fixed(n, 0);
+  fixed[0] = 1;
+  PoseGraphOptions o;
+  o.robust_scale = 0.0;
+  const auto r = solve_pose_graph(initial, fixed, edges, {}, o);
+  ASSERT_EQ(r.poses.size(), static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i)
+    EXPECT_LT(pose_distance(r.poses[static_cast<std::size_t>(i)], truth[static_cast<std::size_t>(i)]), 1e-6)
+        << "node " << i;
+  for (double c : r.edge_chi2) EXPECT_LT(c, 1e-10);
+}
+
+TEST(PoseGraph, RobustLossResistsOneWrongEdge) {
+  Rng rng(11);
+  const int n = 5;
+  std::vector<Eigen::Isometry3d> truth;
+  for (int i = 0; i < n; ++i) truth.push_back(random_rigid(rng, 5.0, 0.02));
+  std::vector<PoseGraphEdge> edges;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      PoseGraphEdge e;
+      e.from = i;
+      e.to = j;
+      e.measurement = truth[static_cast<std::size_t>(j)].inverse() * truth[static_cast<std::size_t>(i)];
+      e.information = 1e6 * Eigen::Matrix<double, 6, 6>::Identity();
+      if (i == 1 && j == 3) e.measurement = rigid(10.0, Vec3::UnitZ(), Vec3(0.05, 0, 0)) * e.measurement;
+      edges.push_back(e);
+    }
+  std::vector<Eigen::Isometry3d> initial(n, Eigen::Isometry3d::Identity());
+  initial[0] = truth[0];
+  std::vector<char> fixed(n, 0);
+  fixed[0] = 1;
+  const auto robust = solve_pose_graph(initial, fixed, edges, {}, {});
+  PoseGraphOptions plain;
+  plain.robust_scale = 0.0;
+  const auto ls = solve_pose_graph(initial, fixed, edges, {}, plain);
+  double worst_robust = 0.0, worst_ls = 0.0;
+  for (int i = 0; i < n; ++i) {
+    worst_robust = std::max(
+        worst_robust, pose_distance(robust.poses[static_cast<std::size_t>(i)], truth[static_cast<std::size_t>(i)]));
+    worst_ls =
+        std::max(worst_ls, pose_distance(ls.poses[static_cast<std::size_t>(i)], truth[static_cast<std::size_t>(i)]));
+  }
+  EXPECT_LT(worst_robust, 1e-4);
+  EXPECT_GT(worst_ls, 1e-2);            // least squares alone is pulled by the wrong edge
+  EXPECT_GT(robust.edge_chi2[5], 1e3);  // (1, 3) is the 6th edge in order
+}
+
+TEST(PoseGraph, PriorPullsAFreeNodeTowardsIdentityAboutItsPivot) {
+  // One node, one prior: the solution is the identity whatever the start.
+  std::vector<Eigen::Isometry3d> initial = {rigid(3.0, Vec3(1, 2, 3), Vec3(0.01, 0.0, -0.02))};
+  std::vector<PoseGraphPrior> priors = {{0, Vec3(1, 0, 0), 0.003, 0.01}};
+  const auto r = solve_pose_graph(initial, {}, {}, priors, {});
+  EXPECT_LT(pose_distance(r.poses[0], Eigen::Isometry3d::Identity()), 1e-8);
+}
+
+TEST(PoseGraph, RejectsBadInput) {
+  std::vector<Eigen::Isometry3d> initial(2, Eigen::Isometry3d::Identity());
+  std::vector<PoseGraphEdge> self = {{1, 1, Eigen::Isometry3d::Identity(), Eigen::Matrix<double, 6, 6>::Identity()}};
+  EXPECT_THROW(solve_pose_graph(initial, {}, self, {}, {}), InputError);
+  std::vector<PoseGraphEdge> out = {{0, 2, Eigen::Isometry3d::Identity(), Eigen::Matrix<double, 6, 6>::Identity()}};
+  EXPECT_THROW(solve_pose_graph(initial, {}, out, {}, {}), InputError);
+  std::vector<PoseGraphPrior> bad = {{0, Vec3::Zero(), 0.0, 0.1}};
+  EXPECT_THROW(solve_pose_graph(initial, {}, {}, bad, {}), InputError);
+}
+
+TEST(Multiway, AlignsScansWithInjectedRobotErrors) {
+  const Scene s = make_scene(8, 0.006, 1.0, 3);
+  const std::vector<Eigen::Isometry3d> none(s.scans.size(), Eigen::Isometry3d::Identity());
+  const auto before = per_scan_error(s, none);
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.006;
+  o.robot_rotation_sigma_deg = 1.0;
+  const auto r = register_multiway(s.scans, s.sensors, {}, {}, o);
+  ASSERT_EQ(r.corrections.size(), s.scans.size());
+  const auto after = per_scan_error(s, r.corrections);
+  if (std::getenv("MW_DEBUG")) std::printf("%s\n", to_json(r).dump(1).c_str());
+  double mean_before = 0.0, mean_after = 0.0;
+  for (std::size_t k = 0; k < after.size(); ++k) {
+    mean_before += before[k] / static_cast<double>(after.size());
+    mean_after += after[k] / static_cast<double>(after.size());
+    EXPECT_LT(after[k], 0.002) << "scan " << k;  // 4x the depth noise
+    EXPECT_FALSE(r.scans[k].flagged) << r.scans[k].flag_reason;
+  }
+  EXPECT_LT(mean_after, 0.2 * mean_before);
+  EXPECT_GT(r.pairs.size(), 8u);
+  // The same input gives the same answer.
+  const auto again = register_multiway(s.scans, s.sensors, {}, {}, o);
+  for (std::size_t k = 0; k < after.size(); ++k) EXPECT_EQ(again.corrections[k].matrix(), r.corrections[k].matrix());
+  const auto j = to_json(r);
+  EXPECT_EQ(j.at("scans").size(), s.scans.size());
+}
+
+TEST(Multiway, FlagsAScanFarBeyondTheDeclaredAccuracy) {
+  Scene s = make_scene(8, 0.003, 0.5, 5);
+  // Scan 3's reported pose is 12 sigma off: a shift of 3.6 cm.
+  const Eigen::Isometry3d big = rigid(0.0, Vec3::UnitZ(), Vec3(0.0, 0.0, 0.036));
+  for (auto& p : s.scans[3].positions) p = big * p;
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.003;
+  o.robot_rotation_sigma_deg = 0.5;
+  const auto r = register_multiway(s.scans, s.sensors, {}, {}, o);
+  EXPECT_TRUE(r.scans[3].flagged);
+  int flagged = 0;
+  for (const auto& sc : r.scans) flagged += sc.flagged ? 1 : 0;
+  EXPECT_EQ(flagged, 1);
+  // The others are still aligned.
+  auto err = per_scan_error(s, r.corrections, 3);
+  for (std::size_t k = 0; k < err.size(); ++k) {
+    if (k == 3) continue;
+    EXPECT_LT(err[k], 0.002) << "scan " << k;
+  }
+}
+
+TEST(Multiway, AnchorsStayAndOnlyFreeScansMove) {
+  const Scene s = make_scene(6, 0.004, 0.5, 9);
+  std::vector<char> free(s.scans.size(), 0);
+  free[5] = 1;
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.004;
+  o.robot_rotation_sigma_deg = 0.5;
+  o.free_neighbors = false;
+  // Anchors at their true placement: scan 5 must come to its true place too.
+  std::vector<Eigen::Isometry3d> init;
+  for (const auto& E : s.error) init.push_back(E.inverse());
+  init[5] = Eigen::Isometry3d::Identity();
+  const auto r = register_multiway(s.scans, s.sensors, init, free, o);
+  if (std::getenv("MW_DEBUG")) std::printf("%s\n", to_json(r).dump(1).c_str());
+  for (std::size_t k = 0; k < 5; ++k) EXPECT_EQ(r.corrections[k].matrix(), init[k].matrix());
+  const Eigen::Isometry3d residual = r.corrections[5] * s.error[5];
+  EXPECT_LT(residual.translation().norm(), 0.001);
+  EXPECT_LT(rotation_angle_deg(residual), 0.1);
+}
+
+TEST(Multiway, RejectsBadOptions) {
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.0;
+  EXPECT_THROW(o.validate(), InputError);
+  o = {};
+  o.min_overlap = 1.5;
+  EXPECT_THROW(o.validate(), InputError);
+  std::vector<PointCloud> scans(2);
+  std::vector<Vec3> sensors(1);
+  EXPECT_THROW(register_multiway(scans, sensors, {}, {}, {}), InputError);
+}
