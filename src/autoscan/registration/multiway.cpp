@@ -53,12 +53,23 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
   p.sensor = sensor - c;
   PointCloud all;
   all.positions = stride_sample(scan.positions, o.target_points, c);
+  // Normals from a local plane fit, and the target points projected onto their plane: on a noisy
+  // scan the raw points' scatter would otherwise enter every point-to-plane residual twice.
+  std::vector<Vec3> projected;
+  const auto fitted = estimate_normals(all.positions, p.sensor, o.normal_k, &projected);
   if (scan.has_normals()) {
     const std::size_t stride = std::max<std::size_t>(1, (scan.size() + o.target_points - 1) / o.target_points);
     for (std::size_t i = 0; i < scan.size(); i += stride) all.normals.push_back(scan.normals[i]);
   } else {
-    all.normals = estimate_normals(all.positions, p.sensor, o.normal_k);
+    all.normals = fitted;
   }
+  // Outliers (far from their neighbours' plane) stay out: beyond 4 times the median distance.
+  std::vector<double> off(all.size());
+  for (std::size_t i = 0; i < all.size(); ++i) off[i] = (all.positions[i] - projected[i]).norm();
+  std::vector<double> sorted = off;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double off_limit = sorted.empty() ? 0.0 : 4.0 * sorted[sorted.size() / 2];
+  all.positions = std::move(projected);
   // Grazing points are the least accurate (a range scanner's depth error grows with the incidence
   // angle, and silhouettes curl): they stay out of the registration.
   const double min_cos = std::cos(o.max_incidence_deg * kDegToRad);
@@ -66,7 +77,7 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
     const Vec3 ray = p.sensor - all.positions[i];
     const double len = ray.norm();
     const double cosi = len > 0.0 ? std::abs(all.normals[i].dot(ray)) / len : 1.0;
-    if (cosi < min_cos) continue;
+    if (cosi < min_cos || (off_limit > 0.0 && off[i] > off_limit)) continue;
     p.target.positions.push_back(all.positions[i]);
     p.target.normals.push_back(all.normals[i]);
     // Depth precision 1/σ², σ ∝ 1 + gain·tan(incidence) (the scanner noise model's incidence term).
@@ -244,8 +255,10 @@ void MultiwayOptions::validate(const std::string& what) const {
                    "{}: information_points must be finite and positive (got {})", what, information_points);
 }
 
-std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k) {
+std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k,
+                                   std::vector<Vec3>* projected) {
   std::vector<Vec3> normals(points.size(), Vec3::UnitZ());
+  if (projected) projected->assign(points.begin(), points.end());
   if (points.size() < 3) return normals;
   const NearestNeighbors nn(points);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
@@ -266,6 +279,7 @@ std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sen
       if (!nrm.allFinite() || nrm.squaredNorm() < 0.5) nrm = (sensor - points[i]).normalized();
       if (nrm.dot(sensor - points[i]) < 0.0) nrm = -nrm;
       normals[i] = nrm;
+      if (projected) (*projected)[i] = points[i] - (points[i] - mean).dot(nrm) * nrm;
     }
   });
   return normals;

@@ -42,7 +42,7 @@ struct MultiwayOptions {
   double overlap_distance = 0.0;
   std::size_t sample_points = 3000;   ///< ICP source / overlap test points per scan (stride sampling)
   std::size_t target_points = 30000;  ///< ICP target points per scan (with normals)
-  int normal_k = 12;                  ///< neighbours for PCA normals when a scan carries none
+  int normal_k = 20;  ///< neighbours of the local plane fit (normals when a scan has none; denoised targets)
   /// Points seen at a larger angle between their normal and the ray to the sensor stay out of the
   /// registration: their depth is the least accurate (docs/registration.md).
   double max_incidence_deg = 80.0;
@@ -113,7 +113,9 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
 
 nlohmann::json to_json(const MultiwayResult& r);
 
-/// PCA normals (k nearest neighbours) of `points`, each turned towards `sensor`.
-std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k);
+/// PCA normals (k nearest neighbours) of `points`, each turned towards `sensor`; `projected` (if
+/// given) receives each point projected onto its fitted plane (a denoised copy).
+std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k,
+                                   std::vector<Vec3>* projected = nullptr);
 
 }  // namespace autoscan::registration

@@ -251,14 +251,13 @@ class Loop {
       r.best_truth = s.iterations()[best].truth;
     }
     if (!registration_errors_.empty()) {
-      double b = 0, a = 0;
-      for (const auto& e : registration_errors_) b += e["before"].get<double>(), a += e["after"].get<double>();
-      r.pose_error_before = b / static_cast<double>(registration_errors_.size());
-      r.pose_error_after = a / static_cast<double>(registration_errors_.size());
+      const json e = refresh_registration_errors(s);
+      r.pose_error_before = e["before"].get<double>();
+      r.pose_error_after = e["after"].get<double>();
       log::info(
           "simulate: registration moved the scans' points from {:.5f} to {:.5f} (mean distance from where "
           "they belong, {} scans)",
-          r.pose_error_before, r.pose_error_after, registration_errors_.size());
+          r.pose_error_before, r.pose_error_after, e["scans"].get<int>());
     }
     fill_checkpoints(s, r);
     r.checkpoints = checkpoints_;
@@ -303,23 +302,61 @@ class Loop {
 
   // The simulator knows where the scanner really was: how far the reported pose put the scan's
   // points from the truth (before), and how far they still are after the session's registration
-  // correction (after). Mean over (up to 2000) of the scan's points; scans without a model to
-  // register to are not counted.
+  // (after; refreshed after every iteration, since the global registration moves scans again).
+  // Mean over up to 64 of the scan's points, stored with the true motion so that a resumed run
+  // measures the same.
   void record_registration_error(const session::Session& s, const scanner::ScanResult& r) {
     const auto& rec = s.scans().back();
-    if (!rec.registration || r.cloud.empty()) return;
+    if (r.cloud.empty()) return;
     const Eigen::Isometry3d truth = r.actual.world_from_camera() * r.commanded.world_from_camera().inverse();
-    const std::size_t n = r.cloud.size(), step = std::max<std::size_t>(1, n / 2000);
-    double before = 0, after = 0;
-    std::size_t m = 0;
-    for (std::size_t i = 0; i < n; i += step, ++m) {
+    const std::size_t n = r.cloud.size(), step = std::max<std::size_t>(1, n / 64);
+    json probes = json::array(), m = json::array();
+    double before = 0;
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < n; i += step, ++count) {
       const Vec3& p = r.cloud.positions[i];
-      const Vec3 t = truth * p;
-      before += (t - p).norm();
-      after += (rec.correction * p - t).norm();
+      probes.push_back({p.x(), p.y(), p.z()});
+      before += (truth * p - p).norm();
     }
-    registration_errors_.push_back({{"scan", rec.id}, {"before", before / m}, {"after", after / m}});
-    write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump(1));
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) m.push_back(truth.matrix()(a, b));
+    registration_errors_.push_back({{"scan", rec.id},
+                                    {"truth", m},
+                                    {"probes", probes},
+                                    {"before", before / static_cast<double>(count)},
+                                    {"after", before / static_cast<double>(count)},
+                                    {"excluded", false}});
+    write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump());
+  }
+
+  // "after" of every recorded scan with the session's current corrections; returns the means over
+  // the scans in the model {before, after, scans}.
+  json refresh_registration_errors(const session::Session& s) {
+    double b = 0, a = 0;
+    int n = 0;
+    for (auto& e : registration_errors_) {
+      const auto id = e.value("scan", -1);
+      if (id < 0 || id >= static_cast<int>(s.scans().size()) || !e.contains("probes") || !e.contains("truth")) continue;
+      const auto& rec = s.scans()[static_cast<std::size_t>(id)];
+      Eigen::Matrix4d M;
+      for (int k = 0; k < 16; ++k) M(k / 4, k % 4) = e["truth"][static_cast<std::size_t>(k)].get<double>();
+      const Eigen::Isometry3d truth(M);
+      double after = 0;
+      std::size_t count = 0;
+      for (const auto& q : e["probes"]) {
+        const Vec3 p(q[0].get<double>(), q[1].get<double>(), q[2].get<double>());
+        after += (rec.correction * p - truth * p).norm();
+        ++count;
+      }
+      e["after"] = count ? after / static_cast<double>(count) : 0.0;
+      e["excluded"] = rec.excluded;
+      if (rec.excluded) continue;
+      b += e["before"].get<double>();
+      a += e["after"].get<double>();
+      ++n;
+    }
+    write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump());
+    return {{"before", n ? b / n : 0.0}, {"after", n ? a / n : 0.0}, {"scans", n}};
   }
 
   void blind_phase(session::Session& s) {
@@ -348,6 +385,11 @@ class Loop {
     }
     json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval, reference());
     t["views_taken"] = views_done(s);
+    if (!registration_errors_.empty()) {
+      const json e = refresh_registration_errors(s);
+      t["registration_error_before"] = e["before"];
+      t["registration_error_after"] = e["after"];
+    }
     s.attach_truth(last.index, t);
     record_checkpoint(views_done(s), t, last.mean_f);
     log::info("iteration {}: mean f {:.3f}, coverage {:.3f}, F-score {:.3f}, accuracy {:.5f}", last.index, last.mean_f,
