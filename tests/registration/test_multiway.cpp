@@ -88,6 +88,17 @@ std::vector<double> per_scan_error(const Scene& s, const std::vector<Eigen::Isom
   return err;
 }
 
+// The edge (i, j) of poses `truth`, measured exactly.
+PoseGraphEdge exact_edge(const std::vector<Eigen::Isometry3d>& truth, int i, int j,
+                         const Eigen::Matrix<double, 6, 6>& information) {
+  PoseGraphEdge e;
+  e.from = i;
+  e.to = j;
+  e.measurement = truth[static_cast<std::size_t>(j)].inverse() * truth[static_cast<std::size_t>(i)];
+  e.information = information;
+  return e;
+}
+
 }  // namespace
 
 TEST(PoseGraph, SolvesExactSyntheticGraphTo1e6) {
@@ -99,13 +110,8 @@ TEST(PoseGraph, SolvesExactSyntheticGraphTo1e6) {
   for (int i = 0; i < n; ++i)
     for (int j : {i + 1, i + 2}) {
       if (j >= n) continue;
-      PoseGraphEdge e;
-      e.from = i;
-      e.to = j;
-      e.measurement = truth[static_cast<std::size_t>(j)].inverse() * truth[static_cast<std::size_t>(i)];
-      Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Random();
-      e.information = M * M.transpose() + Eigen::Matrix<double, 6, 6>::Identity();
-      edges.push_back(e);
+      const Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Random();
+      edges.push_back(exact_edge(truth, i, j, M * M.transpose() + Eigen::Matrix<double, 6, 6>::Identity()));
     }
   std::vector<Eigen::Isometry3d> initial(n, Eigen::Isometry3d::Identity());
   initial[0] = truth[0];
@@ -129,11 +135,7 @@ TEST(PoseGraph, RobustLossResistsOneWrongEdge) {
   std::vector<PoseGraphEdge> edges;
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j) {
-      PoseGraphEdge e;
-      e.from = i;
-      e.to = j;
-      e.measurement = truth[static_cast<std::size_t>(j)].inverse() * truth[static_cast<std::size_t>(i)];
-      e.information = 1e6 * Eigen::Matrix<double, 6, 6>::Identity();
+      PoseGraphEdge e = exact_edge(truth, i, j, 1e6 * Eigen::Matrix<double, 6, 6>::Identity());
       if (i == 1 && j == 3) e.measurement = rigid(10.0, Vec3::UnitZ(), Vec3(0.05, 0, 0)) * e.measurement;
       edges.push_back(e);
     }
