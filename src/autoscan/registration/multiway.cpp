@@ -26,10 +26,13 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 
+// The stride that keeps at most `cap` of `n` items (deterministic subsampling).
+std::size_t stride_for(std::size_t n, std::size_t cap) { return std::max<std::size_t>(1, (n + cap - 1) / cap); }
+
 std::vector<Vec3> stride_sample(const std::vector<Vec3>& pts, std::size_t cap, const Vec3& shift) {
   std::vector<Vec3> out;
   if (pts.empty() || cap == 0) return out;
-  const std::size_t stride = std::max<std::size_t>(1, (pts.size() + cap - 1) / cap);
+  const std::size_t stride = stride_for(pts.size(), cap);
   out.reserve(pts.size() / stride + 1);
   for (std::size_t i = 0; i < pts.size(); i += stride) out.push_back(pts[i] - shift);
   return out;
@@ -45,7 +48,6 @@ struct Prepared {
   double spacing = 0.0;  // median nearest-neighbour distance within the target
   double range = 0.0;    // distance from the sensor to the scan's centroid
   Vec3 sensor = Vec3::Zero();
-  AABB box;
 };
 
 Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, const MultiwayOptions& o) {
@@ -58,8 +60,8 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
   std::vector<Vec3> projected;
   const auto fitted = estimate_normals(all.positions, p.sensor, o.normal_k, &projected);
   if (scan.has_normals()) {
-    const std::size_t stride = std::max<std::size_t>(1, (scan.size() + o.target_points - 1) / o.target_points);
-    for (std::size_t i = 0; i < scan.size(); i += stride) all.normals.push_back(scan.normals[i]);
+    for (std::size_t i = 0; i < scan.size(); i += stride_for(scan.size(), o.target_points))
+      all.normals.push_back(scan.normals[i]);
   } else {
     all.normals = fitted;
   }
@@ -85,13 +87,12 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
     const double sigma = 1.0 + o.incidence_gain * tan_i;
     p.weight.push_back(1.0 / (sigma * sigma));
   }
-  const std::size_t stride = std::max<std::size_t>(1, (p.target.size() + o.sample_points - 1) / o.sample_points);
+  const std::size_t stride = stride_for(p.target.size(), o.sample_points);
   for (std::size_t i = 0; i < p.target.size(); i += stride) {
     p.sample.push_back(p.target.positions[i]);
     p.sample_weight.push_back(p.weight[i]);
   }
   p.tree = std::make_unique<NearestNeighbors>(p.target.positions);
-  p.box = AABB::of(p.target.positions);
   // Spacing: median distance to the nearest other point over a few hundred samples.
   std::vector<double> d;
   std::vector<std::size_t> idx;
@@ -367,7 +368,6 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
   // Pair selection: free scans against every candidate; then (free_neighbors) the anchors they
   // overlap are freed and tested against the candidates too.
   std::set<std::pair<std::size_t, std::size_t>> pair_set;
-  std::vector<double> pair_overlap;
   std::map<std::pair<std::size_t, std::size_t>, double> overlap_of;
   auto test_from = [&](const std::vector<std::size_t>& from) {
     std::vector<std::pair<std::size_t, std::size_t>> tests;

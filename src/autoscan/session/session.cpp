@@ -295,7 +295,7 @@ struct Session::Impl {
   // pose's frame), so a changed correction recomputes them exactly as open() does.
   std::vector<Vec3> model_src, model_src_sensor;
   // Per scan: a stride sample (positions, normals when the scan has them) at its reported pose, for
-  // the global registration.
+  // the global registration; empty for an excluded scan (it takes no further part).
   std::vector<PointCloud> reg_samples;
   std::size_t model_size_at_last_iteration = 0;
   std::optional<Pose> current_pose;
@@ -407,17 +407,19 @@ struct Session::Impl {
     }
   }
 
-  // Recomputes the model points of scan `id` from their received positions and its correction
-  // (the same arithmetic as apply_transform, so a resumed session rebuilds identical points).
-  void reapply_correction(int id) {
-    const Eigen::Isometry3d& C = scans[static_cast<std::size_t>(id)].correction;
-    const bool identity = C.isApprox(Eigen::Isometry3d::Identity(), 0.0);
+  // Recomputes, in one pass over the model, the points of the scans flagged in `moved` from their
+  // received positions and the scan's correction (the same arithmetic as apply_transform, so a
+  // resumed session rebuilds identical points).
+  void reapply_corrections(const std::vector<char>& moved) {
     const auto& sid = model.scalars.get("scan_id");
     auto& sx = *model.scalars.find("sensor_x");
     auto& sy = *model.scalars.find("sensor_y");
     auto& sz = *model.scalars.find("sensor_z");
     for (std::size_t k = 0; k < model.size(); ++k) {
-      if (static_cast<int>(sid[k]) != id) continue;
+      const auto id = static_cast<std::size_t>(sid[k]);
+      if (!moved[id]) continue;
+      const Eigen::Isometry3d& C = scans[id].correction;
+      const bool identity = C.isApprox(Eigen::Isometry3d::Identity(), 0.0);
       const Vec3 p = identity ? model_src[k] : Vec3(C * model_src[k]);
       const Vec3 q = identity ? model_src_sensor[k] : Vec3(C * model_src_sensor[k]);
       model.positions[k] = p;
@@ -452,19 +454,18 @@ struct Session::Impl {
     const int first = pending_from();
     const int n = static_cast<int>(scans.size());
     if (!options.register_scans || !options.global_registration || first >= n) return;
-    std::vector<PointCloud> samples(scans.size());
     std::vector<Vec3> sensors(scans.size());
     std::vector<Eigen::Isometry3d> initial(scans.size());
     std::vector<char> free(scans.size(), 0);
     for (int i = 0; i < n; ++i) {
       const auto& r = scans[static_cast<std::size_t>(i)];
-      if (!r.excluded) samples[static_cast<std::size_t>(i)] = reg_samples[static_cast<std::size_t>(i)];
       sensors[static_cast<std::size_t>(i)] = r.reported_pose.position;
       initial[static_cast<std::size_t>(i)] = r.correction;
       free[static_cast<std::size_t>(i)] = i >= first && !r.excluded ? 1 : 0;
     }
-    const auto res = registration::register_multiway(samples, sensors, initial, free, options.multiway, progress);
+    const auto res = registration::register_multiway(reg_samples, sensors, initial, free, options.multiway, progress);
     int moved = 0, excluded = 0;
+    std::vector<char> moved_flags(scans.size(), 0);
     for (int i = 0; i < n; ++i) {
       const auto& rep = res.scans[static_cast<std::size_t>(i)];
       auto& r = scans[static_cast<std::size_t>(i)];
@@ -479,17 +480,19 @@ struct Session::Impl {
       if (rep.flagged) {
         r.excluded = true;
         r.excluded_reason = rep.flag_reason;
+        reg_samples[static_cast<std::size_t>(i)] = PointCloud{};
         remove_from_model(i);
         ++excluded;
         log::warn("scan {}: kept out of the model ({})", i, rep.flag_reason);
       } else if (!res.corrections[static_cast<std::size_t>(i)].isApprox(r.correction, 0.0)) {
         r.correction = res.corrections[static_cast<std::size_t>(i)];
         r.registered_pose = r.reported_pose.transformed(r.correction);
-        reapply_correction(i);
+        moved_flags[static_cast<std::size_t>(i)] = 1;
         ++moved;
       }
       r.global_registration = std::move(g);
     }
+    if (moved > 0) reapply_corrections(moved_flags);
     // Points of the scans before this iteration's (for the "new" flags of cloud.ply).
     const auto& sid = model.scalars.get("scan_id");
     model_size_at_last_iteration = static_cast<std::size_t>(
@@ -657,7 +660,7 @@ Session Session::open(const fs::path& dir) {
     apply_transform(registered, rec.correction);
     if (impl->planner) impl->planner->observe_scan(registered, rec.registered_pose);
     if (!rec.excluded) impl->append_to_model(scan, registered, keep);
-    impl->reg_samples.push_back(impl->registration_sample(scan));
+    impl->reg_samples.push_back(rec.excluded ? PointCloud{} : impl->registration_sample(scan));
     impl->scans.push_back(std::move(rec));
     // Model size when each iteration ran (for the "new" flags of the next cloud.ply).
   }
