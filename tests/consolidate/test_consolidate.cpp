@@ -70,6 +70,43 @@ TEST(Consolidate, WlopReducesNoiseOnSphereAtLeastThreeFold) {
   EXPECT_EQ(res.points_in, data.cloud.size());
 }
 
+// The no-sensor case of docs/consolidation.md on a sphere: noise 1 % of the radius, 1 % outliers
+// uniform in the enlarged bounding box, no sensor positions, default options. Jet smoothing, WLOP and
+// the projection must at least halve the RMS distance to the surface (measured: about 4x), the MST
+// must orient all but a few normals outward, and no outlier may survive far from the surface.
+TEST(Consolidate, DefaultsDenoiseAndOrientWithoutSensors) {
+  constexpr double R = 0.5, kNoise = 0.005;
+  constexpr std::size_t kInliers = 20000, kOutliers = 200;
+  auto data = autoscan::testdata::sphere_scan(kInliers, R, kNoise, 11);
+  for (const char* c : {"sensor_x", "sensor_y", "sensor_z"}) data.cloud.scalars.erase(c);
+  const double before = rms_sphere_distance(data.cloud, R);
+  Rng rng(12);
+  PointCloud out;
+  for (std::size_t i = 0; i < kOutliers; ++i)
+    out.positions.emplace_back(rng.uniform(-0.55, 0.55), rng.uniform(-0.55, 0.55), rng.uniform(-0.55, 0.55));
+  PointCloud cloud = data.cloud;
+  cloud.append(out);
+  const auto res = ac::consolidate(cloud, {});
+  ASSERT_TRUE(res.wlop.applied);
+  EXPECT_TRUE(res.smoothing.projected_wlop);
+  EXPECT_EQ(res.normals.orientation, ac::Orientation::mst);
+  const double after = rms_sphere_distance(res.cloud, R);
+  EXPECT_LT(after * 2.5, before) << "before " << before << " after " << after;
+  double worst = 0.0, angle = 0.0;
+  std::size_t inward = 0;
+  for (std::size_t i = 0; i < res.cloud.size(); ++i) {
+    const Vec3& p = res.cloud.positions[i];
+    worst = std::max(worst, std::abs(p.norm() - R));
+    const Vec3 truth = p.normalized();
+    if (res.cloud.normals[i].dot(truth) < 0.0) ++inward;
+    angle += angle_deg(res.cloud.normals[i], truth);
+  }
+  angle /= static_cast<double>(res.cloud.size());
+  EXPECT_LT(worst, 0.04) << "an outlier survived";
+  EXPECT_LE(static_cast<double>(inward), 0.002 * static_cast<double>(res.cloud.size())) << inward << " inward";
+  EXPECT_LT(angle, 3.0);
+}
+
 TEST(Consolidate, StatisticalOutlierRemovalFindsInjectedOutliers) {
   constexpr double R = 0.5;
   constexpr std::size_t kInliers = 20000, kOutliers = 200;  // 1 %

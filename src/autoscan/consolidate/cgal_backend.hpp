@@ -23,11 +23,4 @@ std::vector<Vec3> cgal_wlop(std::vector<Vec3> points, double select_percentage, 
 /// True when this build runs CGAL's parallel algorithms on TBB.
 bool cgal_parallel_available();
 
-/// Orients `normals` (one per point, unit, unoriented) consistently by propagation along a minimum
-/// spanning tree of the k-NN Riemannian graph [Hoppe et al. 1992] with CGAL::mst_orient_normals; the
-/// highest point's normal is taken to point up. Normals of points the propagation did not reach are
-/// left as they were and flagged in `oriented` (false). Returns the number of such points.
-std::size_t cgal_mst_orient(const std::vector<Vec3>& points, std::vector<Vec3>& normals, unsigned k,
-                            std::vector<char>& oriented);
-
 }  // namespace autoscan::consolidate::detail

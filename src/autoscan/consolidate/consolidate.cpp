@@ -1,4 +1,5 @@
-// The §4.1 pipeline: outliers → radius filter → thinning → WLOP → normals, with timings per step.
+// The §4.1 pipeline: thinning → outliers → radius filter → smoothing → WLOP → projection → normals, with
+// timings per step.
 #include "autoscan/consolidate/consolidate.hpp"
 
 #include <algorithm>
@@ -61,8 +62,30 @@ ConsolidateResult consolidate(const PointCloud& raw, const ConsolidateOptions& o
     timed("outliers", [&] { r.outliers = remove_statistical_outliers(r.cloud, o.outliers, progress); });
   if (o.radius_filter.radius > 0.0)
     timed("radius_filter", [&] { r.radius_removed = remove_sparse_points(r.cloud, o.radius_filter, progress); });
+  const bool run_smoothing = run_wlop && o.smoothing.enabled;
+  if (run_smoothing && o.smoothing.iterations > 0)
+    timed("smoothing", [&] { r.smoothing = smooth_points(r.cloud, o.smoothing, progress); });
+  std::vector<Vec3> support;
+  if (run_smoothing && o.smoothing.project_wlop) support = r.cloud.positions;
   if (run_wlop) timed("wlop", [&] { r.wlop = apply_wlop(r.cloud, o.wlop, progress); });
-  if (o.normals.enabled) timed("normals", [&] { r.normals = estimate_normals(r.cloud, o.normals, progress); });
+  bool have_normals = false;  // unoriented normals from the jets
+  if (run_smoothing && o.smoothing.project_wlop)
+    timed("projection", [&] {
+      std::vector<Vec3> normals;
+      const int k_fit =
+          static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.smoothing.k), support.size()));
+      r.cloud.positions = project_onto_jets(support, r.cloud.positions, k_fit, o.smoothing.degree, &normals);
+      r.smoothing.projected_wlop = true;
+      if (o.smoothing.jet_normals) {
+        r.cloud.normals = std::move(normals);
+        have_normals = true;
+      }
+    });
+  if (o.normals.enabled)
+    timed("normals", [&] {
+      r.normals =
+          have_normals ? orient_normals(r.cloud, o.normals, progress) : estimate_normals(r.cloud, o.normals, progress);
+    });
   r.points_out = r.cloud.size();
   r.total_seconds = total.seconds();
   return r;

@@ -43,11 +43,21 @@ void fields(consolidate::WlopOptions& o, V& v) {
   v("seed", o.seed);
 }
 template <class V>
+void fields(consolidate::SmoothingOptions& o, V& v) {
+  v("enabled", o.enabled);
+  v("k", o.k);
+  v("degree", o.degree);
+  v("iterations", o.iterations);
+  v("project_wlop", o.project_wlop);
+  v("jet_normals", o.jet_normals);
+}
+template <class V>
 void fields(consolidate::NormalOptions& o, V& v) {
   v("enabled", o.enabled);
   v("k", o.k);
   v("orientation", o.orientation);
   v("mst_k", o.mst_k);
+  v("mst_crossing_weight", o.mst_crossing_weight);
   v("sheet_refinement", o.sheet_refinement);
 }
 template <class V>
@@ -55,6 +65,7 @@ void fields(consolidate::ConsolidateOptions& o, V& v) {
   v("outliers", o.outliers);
   v("radius_filter", o.radius_filter);
   v("thinning", o.thinning);
+  v("smoothing", o.smoothing);
   v("wlop", o.wlop);
   v("normals", o.normals);
 }
