@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "autoscan/core/log.hpp"
 #include "autoscan/simulation/bench.hpp"
@@ -13,7 +14,8 @@ namespace fs = std::filesystem;
 
 struct BenchCli {
   std::string out, models, planners, views, noise, seeds, models_dir = "data/models", collect, results_md;
-  int jobs = 1, job = -1, depth = 7;
+  int jobs = 1, depth = 7;
+  std::optional<int> job;  // not given: the whole grid
   bool emit_jobs = false;
 };
 
@@ -33,6 +35,8 @@ std::vector<T> parse_list(const std::string& s, const char* option) {
           out.push_back(std::stoi(tok));
         else if constexpr (std::is_same_v<T, double>)
           out.push_back(std::stod(tok));
+        else if (tok.find('-') != std::string::npos)  // stoull would wrap "-1" around to 2^64-1
+          throw std::out_of_range(tok);
         else
           out.push_back(static_cast<T>(std::stoull(tok)));
       } catch (const std::exception&) {
@@ -53,7 +57,8 @@ std::string self_exe() {
 
 AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
   auto o = std::make_shared<BenchCli>();
-  auto* sub = root.add_subcommand("bench", "Compare planners on models × noise × seeds at view budgets (tables, plots)");
+  auto* sub =
+      root.add_subcommand("bench", "Compare planners on models × noise × seeds at view budgets (tables, plots)");
   sub->add_option("--out", o->out, "Benchmark directory (resumable)");
   sub->add_option("--models", o->models, "Comma-separated model names (data/models/NAME.off), 'procedural' or paths");
   sub->add_option("--planners", o->planners, "Comma-separated planners (default: all seven)");
@@ -63,7 +68,8 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
   sub->add_option("--depth", o->depth, "Poisson depth of the runs")->capture_default_str();
   sub->add_option("--models-dir", o->models_dir, "Where model names are looked up")->capture_default_str();
   sub->add_option("--jobs", o->jobs, "Runs in parallel (processes)")->capture_default_str();
-  sub->add_flag("--emit-jobs", o->emit_jobs, "Print one self-contained command per unfinished run (GNU parallel, Slurm)");
+  sub->add_flag("--emit-jobs", o->emit_jobs,
+                "Print one self-contained command per unfinished run (GNU parallel, Slurm)");
   sub->add_option("--job", o->job, "Run only job number I of the grid in --out (what --emit-jobs prints)");
   sub->add_option("--collect", o->collect, "Merge the results in DIR into tables and plots");
   sub->add_option("--results-md", o->results_md, "With --collect or a full run: also write the Markdown here");
@@ -72,13 +78,15 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
     if (!o->collect.empty()) {
       const auto s = collect(o->collect, o->results_md);
       g.emit(s);
-      if (!g.json) fmt::print("collected {} of {} runs into {}\n", s["finished"].get<int>(), s["runs"].get<int>(),
-                              s["markdown"].get<std::string>());
+      if (!g.json)
+        fmt::print("collected {} of {} runs into {}\n", s["finished"].get<int>(), s["runs"].get<int>(),
+                   s["markdown"].get<std::string>());
       return;
     }
     AUTOSCAN_REQUIRE(!o->out.empty(), "bench: --out is required");
-    if (o->job >= 0) {
-      const auto r = run_job(o->out, o->job, g.progress());
+    if (o->job) {
+      AUTOSCAN_REQUIRE(*o->job >= 0, "--job must be >= 0, got {}", *o->job);
+      const auto r = run_job(o->out, *o->job, g.progress());
       g.emit(r);
       return;
     }
@@ -98,7 +106,8 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
     const int failed = run_bench(o->out, self_exe(), o->jobs);
     const auto s = collect(o->out, o->results_md);
     g.emit({{"failed", failed}, {"collect", s}});
-    if (!g.json) fmt::print("{} runs, {} failed; tables: {}\n", s["runs"].get<int>(), failed, s["markdown"].get<std::string>());
+    if (!g.json)
+      fmt::print("{} runs, {} failed; tables: {}\n", s["runs"].get<int>(), failed, s["markdown"].get<std::string>());
     if (failed > 0) throw autoscan::RuntimeError(fmt::format("bench: {} runs failed (see their logs)", failed));
   });
 });

@@ -8,6 +8,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
@@ -25,7 +26,7 @@ namespace {
 struct BlindScanCli {
   std::string mesh, out, scanner, rig;
   autoscan::scanner::BlindScanOptions blind;
-  double noise = -1.0;  // < 0: keep the scanner file's magnitude
+  std::optional<double> noise;  // not given: keep the scanner file's magnitude
   std::uint64_t seed = 42;
   bool normalize = false;
   bool ascii = false;

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "autoscan/consolidate/consolidate.hpp"
 #include "autoscan/core/error.hpp"
@@ -16,7 +17,7 @@ namespace {
 struct ConsolidateCli {
   std::string cloud, out;
   bool wlop = false, no_wlop = false;
-  double noise = -1.0;
+  std::optional<double> noise;  // not given: unknown
   int k = 16;
   double outlier_std = 3.0;
   bool no_outliers = false;
@@ -46,9 +47,8 @@ AUTOSCAN_CLI_COMMAND(consolidate, 40, [](CLI::App& root, autoscan::cli::Globals&
   auto* on = sub->add_flag("--wlop", o->wlop, "Always run WLOP denoising/regularisation");
   sub->add_flag("--no-wlop", o->no_wlop, "Never run WLOP")->excludes(on);
   sub->add_option(
-         "--noise", o->noise,
-         "Expected noise magnitude (scanner noise in [0,1]); WLOP runs unless it is 0 (default: unknown, WLOP on)")
-      ->capture_default_str();
+      "--noise", o->noise,
+      "Expected noise magnitude (scanner noise in [0,1]); WLOP runs unless it is 0 (default: unknown, WLOP on)");
   sub->add_option("--k", o->k, "Neighbours for the outlier statistics and the normal fit")->capture_default_str();
   sub->add_option("--outlier-std", o->outlier_std,
                   "Outlier threshold in robust standard deviations above the median k-NN distance")
@@ -92,7 +92,10 @@ AUTOSCAN_CLI_COMMAND(consolidate, 40, [](CLI::App& root, autoscan::cli::Globals&
     opt.thinning.voxel_size = o->voxel;
     opt.thinning.max_points = o->max_points;
     opt.wlop.mode = o->wlop ? ac::WlopMode::on : o->no_wlop ? ac::WlopMode::off : ac::WlopMode::automatic;
-    opt.wlop.noise_hint = o->noise;
+    if (o->noise) {
+      AUTOSCAN_REQUIRE(*o->noise >= 0 && *o->noise <= 1, "--noise must be in [0, 1], got {}", *o->noise);
+      opt.wlop.noise_hint = *o->noise;
+    }
     opt.wlop.select_percentage = o->wlop_percentage;
     opt.wlop.iterations = o->wlop_iterations;
     opt.wlop.radius = o->wlop_radius;

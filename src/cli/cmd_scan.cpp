@@ -8,6 +8,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
@@ -23,7 +24,7 @@ namespace {
 
 struct ScanCli {
   std::string mesh, pose, out, scanner, rig;
-  double noise = -1.0;  // < 0: keep the scanner file's magnitude
+  std::optional<double> noise;  // not given: keep the scanner file's magnitude
   std::uint64_t seed = 42;
   std::uint64_t scan_id = 0;
   bool normalize = false;
@@ -43,7 +44,9 @@ AUTOSCAN_CLI_COMMAND(scan, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
   sub->add_option("--rig", o->rig, "Robot rig: a rig JSON file, or a kind: free (default), turntable_arm, view_sphere");
   sub->add_option("--noise", o->noise, "Noise magnitude in [0, 1] (overrides the scanner file's)");
   sub->add_option("--seed", o->seed, "Seed of the noise")->capture_default_str();
+  // Stored as a float scalar in the PLY: ids up to 2^24 are exact.
   sub->add_option("--scan-id", o->scan_id, "Scan id stored with every point (also selects the noise stream)")
+      ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 24))
       ->capture_default_str();
   sub->add_flag("--normalize", o->normalize, "Scale the mesh to bounding-box diagonal 1, centred at the origin");
   sub->add_flag("--ascii", o->ascii, "Write a text PLY instead of binary");

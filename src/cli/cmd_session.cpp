@@ -36,7 +36,7 @@ nlohmann::json parse_json_file(const std::string& path, const std::string& optio
   cli::require_input_file(path, option);
   try {
     return nlohmann::json::parse(read_text_file(path));
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for 1e999
     throw InputError(fmt::format("{}: not valid JSON ({}): {}", path, option, e.what()));
   }
 }

@@ -2,8 +2,10 @@
 // autoscan demo     — the same on the built-in procedural object, then the report.
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "autoscan/core/atomic_file.hpp"
+#include "autoscan/core/json_io.hpp"
 #include "autoscan/core/log.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/shapes/procedural.hpp"
@@ -16,9 +18,10 @@ using autoscan::simulation::SimulateOptions;
 
 struct SimCli {
   std::string mesh, out, config, planner, rig;
-  int max_views = -1, max_iterations = -1, depth = -1;
-  double noise = -1;
-  long long seed = -1;
+  // Not given: the configuration's value (every given value is validated, none means "default").
+  std::optional<int> max_views, max_iterations, depth;
+  std::optional<double> noise;
+  std::optional<std::uint64_t> seed;
   bool resume = false, no_report = false, no_eval = false;
   std::string checkpoints;
 };
@@ -41,17 +44,23 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
 SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   if (!o.config.empty()) {
     autoscan::cli::require_input_file(o.config, "--config");
-    auto j = nlohmann::json::parse(autoscan::read_text_file(o.config), nullptr, false);
-    AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON", o.config);
-    base = autoscan::simulation::simulate_options_from_json(j, base, o.config);
+    base = autoscan::simulation::simulate_options_from_json(autoscan::read_json_file(o.config), base, o.config);
   }
   if (!o.planner.empty()) base.session.planner = o.planner;
-  if (o.max_views >= 0) base.session.max_views = o.max_views;
-  if (o.max_iterations >= 0) base.session.max_iterations = o.max_iterations;
-  if (o.noise >= 0) base.scanner.noise.magnitude = o.noise;
-  AUTOSCAN_REQUIRE(o.noise == -1 || (o.noise >= 0 && o.noise <= 1), "--noise must be in [0, 1], got {}", o.noise);
-  if (o.seed >= 0) base.session.seed = static_cast<std::uint64_t>(o.seed);
-  if (o.depth >= 0) base.session.poisson.depth = o.depth;
+  if (o.max_views) {
+    AUTOSCAN_REQUIRE(*o.max_views >= 0, "--max-views must be >= 0, got {}", *o.max_views);
+    base.session.max_views = *o.max_views;
+  }
+  if (o.max_iterations) {
+    AUTOSCAN_REQUIRE(*o.max_iterations >= 1, "--max-iterations must be >= 1, got {}", *o.max_iterations);
+    base.session.max_iterations = *o.max_iterations;
+  }
+  if (o.noise) {
+    AUTOSCAN_REQUIRE(*o.noise >= 0 && *o.noise <= 1, "--noise must be in [0, 1], got {}", *o.noise);
+    base.scanner.noise.magnitude = *o.noise;
+  }
+  if (o.seed) base.session.seed = *o.seed;
+  if (o.depth) base.session.poisson.depth = *o.depth;  // range-checked by base.validate() below
   if (!o.rig.empty()) base.rig.kind = autoscan::Rig::parse_kind(o.rig);
   if (o.no_report) base.report = false;
   if (o.no_eval) base.evaluate = false;

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <new>
+#include <string>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
@@ -39,8 +41,8 @@ ProgressCallback Globals::progress() const {
     if (tty) {
       if (pct != st->last) {
         const int w = 30, fill = pct * w / 100;
-        std::fprintf(stderr, "\r%-24.24s [%.*s%*s] %3d%%", st->stage.c_str(), fill,
-                     "##############################", w - fill, "", pct);
+        std::fprintf(stderr, "\r%-24.24s [%.*s%*s] %3d%%", st->stage.c_str(), fill, "##############################",
+                     w - fill, "", pct);
         if (pct == 100) std::fputc('\n', stderr);
         std::fflush(stderr);
       }
@@ -70,6 +72,34 @@ void require_output_parent(const std::string& path, const std::string& option) {
   AUTOSCAN_REQUIRE(!fs::is_directory(p, ec), "{}: is a directory ({})", path, option);
 }
 
+namespace {
+
+/// CLI11 reads "-1" into an unsigned option as 2^64-1 (a scan id of 1.8e19): every unsigned option
+/// of every command refuses a negative value instead.
+void refuse_negative_unsigned(CLI::App& app) {
+  for (CLI::Option* opt : app.get_options())
+    if (opt->get_type_name() == "UINT") opt->check(CLI::NonNegativeNumber);
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_negative_unsigned(*sub);
+}
+
+/// The word the user meant as a (nested) command when a command was required but none matched,
+/// e.g. "frobnicate" in `autoscan frobnicate` or "session frobnicate"; empty otherwise.
+std::string unknown_command(CLI::App& app) {
+  CLI::App* cur = &app;
+  std::string path;
+  while (!cur->get_subcommands().empty()) {
+    cur = cur->get_subcommands().front();
+    path += cur->get_name() + " ";
+  }
+  if (cur->get_subcommands([](CLI::App*) { return true; }).empty()) return {};  // a leaf command
+  // The word may have fallen through to a parent: the root's list holds every level's leftovers.
+  for (const std::string& arg : app.remaining(true))
+    if (!arg.empty() && arg.front() != '-') return path + arg;
+  return {};
+}
+
+}  // namespace
+
 }  // namespace autoscan::cli
 
 int main(int argc, char** argv) {
@@ -86,6 +116,7 @@ int main(int argc, char** argv) {
   auto& reg = cli::command_registry();
   std::stable_sort(reg.begin(), reg.end(), [](const auto& a, const auto& b) { return a.order < b.order; });
   for (auto& e : reg) e.setup(app, g);
+  cli::refuse_negative_unsigned(app);
   try {
     app.parse(argc, argv);
     log::Level lvl = log::parse_level(g.log_level);
@@ -106,12 +137,22 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::RequiredError& e) {
+    if (const std::string word = cli::unknown_command(app); !word.empty()) {
+      std::fprintf(stderr, "autoscan: error: unknown command '%s' (see autoscan --help)\n", word.c_str());
+      return 2;
+    }
+    app.exit(e);
+    return 2;
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return 2;
   } catch (const autoscan::InputError& e) {
     std::fprintf(stderr, "autoscan: error: %s\n", e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "autoscan: error: out of memory\n");
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "autoscan: error: %s\n", e.what());
     return 1;

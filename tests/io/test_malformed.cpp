@@ -3,7 +3,10 @@
 // readers; nothing is ever written. Plus paths that are not files at all.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "autoscan/core/error.hpp"
@@ -123,5 +126,91 @@ TEST(Malformed, TruncationAtEveryByteNeverCrashes) {
     }
   }
   EXPECT_GT(rejected, total * 9 / 10);
+  fs::remove_all(dir);
+}
+
+// Issue 21, item 2: the header's duplicate-name checks were quadratic (150k properties ran past
+// 60 s). A header far beyond the property cap is refused at once; one just under it parses at once.
+TEST(Malformed, HugePlyHeadersAreParsedOrRefusedInLinearTime) {
+  const auto dir = autoscan::testing::temp_dir("huge_header");
+  auto header = [](std::size_t extra) {
+    std::string h = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n";
+    for (std::size_t i = 0; i < extra; ++i) h += "property float s" + std::to_string(i) + "\n";
+    return h + "end_header\n";
+  };
+  auto timed = [](auto&& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string msg = error_of(f);
+    return std::pair{msg, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+  };
+  const auto huge = dir / "huge.ply";
+  autoscan::testing::write_bytes(huge, header(150000) + "0 0 0\n");
+  const auto [refused, t_refused] = timed([&] { (void)io::read_point_cloud(huge); });
+  EXPECT_EQ(refused.rfind(huge.string() + ": ", 0), 0u) << refused;
+  EXPECT_NE(refused.find("more than 16384 properties"), std::string::npos) << refused;
+  EXPECT_LT(t_refused, 1.0);
+
+  const auto wide = dir / "wide.ply";
+  std::string row = "0 0 0";
+  for (int i = 0; i < 16000; ++i) row += " 1";
+  autoscan::testing::write_bytes(wide, header(16000) + row + "\n");
+  PointCloud c;
+  const auto [ok, t_ok] = timed([&] { c = io::read_point_cloud(wide); });
+  EXPECT_EQ(ok, "NO ERROR");
+  EXPECT_EQ(c.scalars.size(), 16000u);
+  EXPECT_LT(t_ok, 1.0);
+
+  // A duplicate deep in a long header is still found.
+  std::string dup = header(12000);
+  dup.insert(dup.find("end_header"), "property float s11999\n");
+  autoscan::testing::write_bytes(dir / "dup.ply", dup + row + "\n");
+  EXPECT_NE(error_of([&] { (void)io::read_point_cloud(dir / "dup.ply"); }).find("'s11999' is declared twice"),
+            std::string::npos);
+  fs::remove_all(dir);
+}
+
+// Issue 21, item 3: every number is finite and within its type's range where it enters; 1e300 in
+// a float column used to be read (and `convert` wrote inf). Each binary encoding too.
+TEST(Malformed, ValuesOutsideTheirTypeOrTheCoordinateBoundAreRefused) {
+  const auto dir = autoscan::testing::temp_dir("ranges");
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\n";
+  auto ply = [&](const std::string& props, const std::string& rows) {
+    const auto p = dir / "x.ply";
+    autoscan::testing::write_bytes(p, head + props + "end_header\n" + rows);
+    return error_of([&] { (void)io::read_point_cloud(p); });
+  };
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+  EXPECT_NE(ply(xyz + "property float q\n", "0 0 0 0\n1 0 0 0\n0 0 0 3.5e38\n")
+                .find("'3.5e38' overflows the property's type float (element 'vertex' item 2, property 'q')"),
+            std::string::npos);
+  EXPECT_EQ(ply(xyz + "property float q\n", "0 0 0 0\n1 0 0 0\n0 0 0 3.4e38\n"), "NO ERROR");  // a float holds it
+  EXPECT_NE(ply(xyz + "property uchar u\n", "0 0 0 0\n1 0 0 255\n0 1 0 256\n").find("type uchar"), std::string::npos);
+  EXPECT_NE(ply(xyz + "property uchar u\n", "0 0 0 0\n1 0 0 -1\n0 1 0 2\n").find("type uchar"), std::string::npos);
+  EXPECT_NE(ply(xyz + "property short s\n", "0 0 0 0\n1 0 0 32768\n0 1 0 2\n").find("type short"), std::string::npos);
+  EXPECT_NE(ply(xyz + "property float q\n", "0 0 0 0\n1 0 0 inf\n0 1 0 2\n").find("non-finite"), std::string::npos);
+  EXPECT_EQ(ply(xyz + "property char c\n", "0 0 0 -128\n1 0 0 127\n0 1 0 3.0\n"), "NO ERROR");
+  const std::string dxyz = "property double x\nproperty double y\nproperty double z\n";
+  EXPECT_NE(ply(dxyz, "0 0 0\n1 0 0\n0 -2e12 0\n").find("beyond"), std::string::npos);
+  EXPECT_EQ(ply(dxyz, "0 0 0\n1 0 0\n0 -1e12 0\n"), "NO ERROR");
+
+  // Binary: a NaN or Inf in any vertex property, and a float beyond the coordinate bound.
+  PointCloud c;
+  c.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  c.scalars.set("q", {1.0, std::numeric_limits<double>::infinity(), 2.0});
+  for (const bool big : {false, true}) {
+    io::write_point_cloud(dir / "b.ply", c, {.big_endian = big});
+    EXPECT_NE(error_of([&] { (void)io::read_point_cloud(dir / "b.ply"); }).find("vertex 1 has a non-finite value"),
+              std::string::npos);
+  }
+  // A float coordinate far beyond any scene (the writers refuse to write one).
+  std::string far = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n" + xyz + "end_header\n";
+  for (const float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 3e30f, 0.f}) {
+    char b[4];
+    std::memcpy(b, &v, 4);
+    far.append(b, 4);
+  }
+  autoscan::testing::write_bytes(dir / "f.ply", far);
+  EXPECT_NE(error_of([&] { (void)io::read_point_cloud(dir / "f.ply"); }).find("vertex 2 has a coordinate beyond"),
+            std::string::npos);
   fs::remove_all(dir);
 }

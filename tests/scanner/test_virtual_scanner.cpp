@@ -455,3 +455,41 @@ TEST(BlindScan, MergesTheScansWithTheirIds) {
   EXPECT_EQ(ids.back(), 7.0);
   EXPECT_EQ(r.cloud.normals.size(), r.cloud.size());
 }
+
+// Issue 21, item 1: a scanner position at 1e19-1e20 (a pose, a blind-scan distance, a far range)
+// aborted inside Embree (its rays are single precision). They are refused before any ray is cast;
+// a far but bounded pose scans (and sees nothing in range) without a crash.
+TEST(VirtualScanner, PosesAndRangesBeyondTheBoundNeverReachEmbree) {
+  const TriangleMesh sphere = icosphere(2, kR);
+  auto message = [](auto&& f) {
+    try {
+      f();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no InputError");
+  };
+  const VirtualScanner scanner(sphere, small_spec(40, 30));
+  Pose far_away;
+  far_away.position = Vec3(1e20, 0, 0);
+  far_away.direction = Vec3(-1, 0, 0);
+  EXPECT_NE(message([&] { scanner.scan(far_away, 0); }).find("position"), std::string::npos);
+  far_away.position = Vec3(1e19, 0, 0);
+  EXPECT_NE(message([&] { scanner.scan(far_away, 0); }).find("beyond"), std::string::npos);
+  far_away.position = Vec3(1e11, 0, 0);  // bounded: traced, nothing within the working range
+  EXPECT_EQ(scanner.scan(far_away, 0).cloud.size(), 0u);
+
+  ScannerSpec long_range = small_spec(40, 30);
+  long_range.far = 1e20;
+  EXPECT_NE(message([&] { VirtualScanner(sphere, long_range); }).find("far"), std::string::npos);
+
+  BlindScanOptions distant;
+  distant.distance = 1e20;
+  EXPECT_NE(message([&] { (void)blind_scan(scanner, distant); }).find("distance"), std::string::npos);
+  // The object's centre plus a bounded distance can still leave the bound: the pose check catches it.
+  TriangleMesh shifted = sphere;
+  for (auto& v : shifted.vertices) v.x() += 9e11;
+  const VirtualScanner shifted_scanner(shifted, small_spec(40, 30));
+  distant.distance = 5e11;
+  EXPECT_NE(message([&] { (void)blind_scan(shifted_scanner, distant); }).find("beyond"), std::string::npos);
+}

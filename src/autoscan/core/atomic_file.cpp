@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -11,6 +13,16 @@
 
 namespace autoscan {
 namespace fs = std::filesystem;
+
+namespace {
+/// Why a write failed, from the errno it left: a full disk is said in so many words.
+std::string write_error(int err) {
+  if (err == ENOSPC) return "write failed: no space left on device (the disk is full)";
+  if (err == EDQUOT) return "write failed: disk quota exceeded";
+  if (err != 0) return fmt::format("write failed: {}", std::strerror(err));
+  return "write failed";
+}
+}  // namespace
 
 void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& writer) {
   static std::atomic<unsigned> counter{0};
@@ -23,17 +35,27 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
       dir / fmt::format(".{}.tmp.{}.{}", path.filename().string(), static_cast<long>(::getpid()), counter++);
   try {
     {
+      errno = 0;
       std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-      if (!out) throw RuntimeError(fmt::format("{}: cannot open temporary file for writing", path.string()));
+      if (!out)
+        throw RuntimeError(
+            fmt::format("{}: cannot open temporary file for writing: {}", path.string(), std::strerror(errno)));
       writer(out);
       out.flush();
-      if (!out) throw RuntimeError(fmt::format("{}: write failed", path.string()));
+      // The stream keeps no error code; the failed write(2) left it in errno.
+      if (!out) throw RuntimeError(fmt::format("{}: {}", path.string(), write_error(errno)));
+      out.close();
+      if (!out) throw RuntimeError(fmt::format("{}: {}", path.string(), write_error(errno)));
     }
-    // Make the data durable before the rename makes it visible.
+    // Make the data durable before the rename makes it visible (some file systems report a full
+    // disk only here).
     const int fd = ::open(tmp.c_str(), O_RDONLY);
     if (fd >= 0) {
-      (void)::fsync(fd);
+      const int rc = ::fsync(fd);
+      const int err = errno;
       ::close(fd);
+      if (rc != 0 && err != EINVAL && err != EROFS)  // EINVAL/EROFS: the file cannot be synced at all
+        throw RuntimeError(fmt::format("{}: {}", path.string(), write_error(err)));
     }
     fs::rename(tmp, path);
   } catch (...) {

@@ -8,8 +8,12 @@ namespace autoscan {
 
 void TriangleMesh::validate(const std::string& what) const {
   const auto n = static_cast<long long>(vertices.size());
-  for (std::size_t i = 0; i < vertices.size(); ++i)
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
     AUTOSCAN_REQUIRE(vertices[i].allFinite(), "{}: vertex {} has a non-finite coordinate", what, i);
+    AUTOSCAN_REQUIRE(within_coordinate_range(vertices[i]),
+                     "{}: vertex {} has a coordinate beyond ±{:g}, the largest supported magnitude", what, i,
+                     kMaxCoordinate);
+  }
   for (std::size_t f = 0; f < faces.size(); ++f)
     for (int k = 0; k < 3; ++k)
       AUTOSCAN_REQUIRE(faces[f][k] >= 0 && faces[f][k] < n, "{}: face {} references vertex {} (mesh has {} vertices)",
@@ -19,8 +23,8 @@ void TriangleMesh::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(vertex_colors.empty() || vertex_colors.size() == vertices.size(),
                    "{}: {} vertex colours for {} vertices", what, vertex_colors.size(), n);
   for (const auto& [name, col] : vertex_scalars.columns())
-    AUTOSCAN_REQUIRE(col.size() == vertices.size(), "{}: vertex scalar '{}' has {} values for {} vertices", what,
-                     name, col.size(), n);
+    AUTOSCAN_REQUIRE(col.size() == vertices.size(), "{}: vertex scalar '{}' has {} values for {} vertices", what, name,
+                     col.size(), n);
 }
 
 std::vector<Vec3> TriangleMesh::face_normals() const {
@@ -48,7 +52,8 @@ void TriangleMesh::compute_vertex_normals() {
 
 double TriangleMesh::area() const {
   double a = 0;
-  for (const auto& t : faces) a += 0.5 * (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]).norm();
+  for (const auto& t : faces)
+    a += 0.5 * (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]).norm();
   return a;
 }
 

@@ -12,10 +12,18 @@ void PointCloud::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(colors.empty() || colors.size() == n, "{}: {} colours for {} points", what, colors.size(), n);
   for (const auto& [name, col] : scalars.columns())
     AUTOSCAN_REQUIRE(col.size() == n, "{}: scalar '{}' has {} values for {} points", what, name, col.size(), n);
-  for (std::size_t i = 0; i < n; ++i)
+  for (std::size_t i = 0; i < n; ++i) {
     AUTOSCAN_REQUIRE(positions[i].allFinite(), "{}: point {} has a non-finite coordinate", what, i);
-  for (std::size_t i = 0; i < normals.size(); ++i)
+    AUTOSCAN_REQUIRE(within_coordinate_range(positions[i]),
+                     "{}: point {} has a coordinate beyond ±{:g}, the largest supported magnitude", what, i,
+                     kMaxCoordinate);
+  }
+  for (std::size_t i = 0; i < normals.size(); ++i) {
     AUTOSCAN_REQUIRE(normals[i].allFinite(), "{}: normal {} has a non-finite component", what, i);
+    AUTOSCAN_REQUIRE(within_coordinate_range(normals[i]),
+                     "{}: normal {} has a component beyond ±{:g}, the largest supported magnitude", what, i,
+                     kMaxCoordinate);
+  }
 }
 
 void PointCloud::select(const std::vector<std::size_t>& keep) {

@@ -1,8 +1,8 @@
 #include "autoscan/core/pose.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <charconv>
+#include <nlohmann/json.hpp>
+#include <utility>
 #include <vector>
 
 #include "autoscan/core/error.hpp"
@@ -14,6 +14,11 @@ void Pose::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(direction.allFinite(), "{}: direction has a non-finite component", what);
   AUTOSCAN_REQUIRE(up.allFinite(), "{}: up has a non-finite component", what);
   AUTOSCAN_REQUIRE(direction.norm() > 1e-12, "{}: direction has zero length", what);
+  // Bounded before any pose reaches the ray tracer (types.hpp, kMaxCoordinate).
+  for (const auto& [v, name] : {std::pair{&position, "position"}, {&direction, "direction"}, {&up, "up"}})
+    AUTOSCAN_REQUIRE(within_coordinate_range(*v),
+                     "{}: {} ({}, {}, {}) is beyond ±{:g}, the largest supported magnitude", what, name, v->x(), v->y(),
+                     v->z(), kMaxCoordinate);
 }
 
 Pose Pose::normalized() const {

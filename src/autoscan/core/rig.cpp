@@ -1,9 +1,9 @@
 #include "autoscan/core/rig.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numbers>
+#include <utility>
 
 #include "autoscan/core/error.hpp"
 
@@ -32,8 +32,8 @@ bool Rig::reachable(const Pose& pose, std::string* why) const {
     case Kind::view_sphere: {
       const double r = pose.position.norm();
       if (std::abs(r - sphere_radius) > sphere_tolerance)
-        return fail(fmt::format("distance {:.3f} from the centre is not on the view sphere of radius {}", r,
-                                sphere_radius));
+        return fail(
+            fmt::format("distance {:.3f} from the centre is not on the view sphere of radius {}", r, sphere_radius));
       return true;
     }
   }
@@ -54,6 +54,16 @@ double Rig::travel_cost(const Pose& from, const Pose& to) const {
 }
 
 void Rig::validate(const std::string& what) const {
+  // Every length is finite and bounded like any coordinate (types.hpp, kMaxCoordinate).
+  for (const auto& [v, name] : {std::pair{min_radius, "min_radius"},
+                                {max_radius, "max_radius"},
+                                {min_height, "min_height"},
+                                {max_height, "max_height"},
+                                {sphere_radius, "sphere_radius"},
+                                {sphere_tolerance, "sphere_tolerance"},
+                                {turntable_cost_per_rad, "turntable_cost_per_rad"}})
+    AUTOSCAN_REQUIRE(std::isfinite(v) && std::abs(v) <= kMaxCoordinate,
+                     "{}: {} must be a finite number within ±{:g}, got {}", what, name, kMaxCoordinate, v);
   AUTOSCAN_REQUIRE(min_radius >= 0 && min_radius < max_radius, "{}: need 0 <= min_radius < max_radius", what);
   AUTOSCAN_REQUIRE(min_height < max_height, "{}: need min_height < max_height", what);
   AUTOSCAN_REQUIRE(sphere_radius > 0 && sphere_tolerance >= 0, "{}: sphere_radius must be positive", what);
@@ -80,14 +90,26 @@ std::string Rig::kind_name(Kind k) {
 }
 
 nlohmann::json to_json(const Rig& r) {
-  return {{"kind", Rig::kind_name(r.kind)},      {"min_radius", r.min_radius},
-          {"max_radius", r.max_radius},          {"min_height", r.min_height},
-          {"max_height", r.max_height},          {"sphere_radius", r.sphere_radius},
-          {"sphere_tolerance", r.sphere_tolerance}, {"turntable_cost_per_rad", r.turntable_cost_per_rad}};
+  return {{"kind", Rig::kind_name(r.kind)},
+          {"min_radius", r.min_radius},
+          {"max_radius", r.max_radius},
+          {"min_height", r.min_height},
+          {"max_height", r.max_height},
+          {"sphere_radius", r.sphere_radius},
+          {"sphere_tolerance", r.sphere_tolerance},
+          {"turntable_cost_per_rad", r.turntable_cost_per_rad}};
 }
 
 Rig rig_from_json(const nlohmann::json& j, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: a rig must be a JSON object", what);
+  // Unknown fields are an error, as in a scanner spec: a typo must not pass silently.
+  static const char* known[] = {"kind",       "min_radius",    "max_radius",       "min_height",
+                                "max_height", "sphere_radius", "sphere_tolerance", "turntable_cost_per_rad"};
+  for (const auto& [k, v] : j.items()) {
+    bool ok = false;
+    for (auto* n : known) ok = ok || k == n;
+    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}'", what, k);
+  }
   Rig r;
   if (j.contains("kind")) {
     AUTOSCAN_REQUIRE(j["kind"].is_string(), "{}: 'kind' must be a string", what);

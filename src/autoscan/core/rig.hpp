@@ -8,7 +8,6 @@
 //                    (the classic sphere-based planners, e.g. Vasquez-Gomez 2009).
 // A pose outside the reach is reported as unreachable with a reason, never silently moved.
 #include <nlohmann/json_fwd.hpp>
-
 #include <string>
 
 #include "autoscan/core/pose.hpp"
@@ -18,12 +17,12 @@ namespace autoscan {
 struct Rig {
   enum class Kind { free, turntable_arm, view_sphere };
   Kind kind = Kind::free;
-  double min_radius = 0.3;   ///< turntable_arm: distance from the Z axis
+  double min_radius = 0.3;  ///< turntable_arm: distance from the Z axis
   double max_radius = 2.5;
   double min_height = -1.5;  ///< turntable_arm: scanner height
   double max_height = 2.0;
-  double sphere_radius = 1.2;     ///< view_sphere
-  double sphere_tolerance = 1e-3; ///< view_sphere: allowed radial deviation
+  double sphere_radius = 1.2;           ///< view_sphere
+  double sphere_tolerance = 1e-3;       ///< view_sphere: allowed radial deviation
   double turntable_cost_per_rad = 0.1;  ///< turntable_arm path cost of turning the table by 1 rad
 
   /// True when the robot can place the scanner at `pose`; otherwise `why` (if given) says why.
@@ -38,6 +37,7 @@ struct Rig {
 };
 
 nlohmann::json to_json(const Rig& rig);
+/// Missing fields keep their defaults; unknown fields are an error (as for a scanner spec).
 Rig rig_from_json(const nlohmann::json& j, const std::string& what = "rig");
 
 }  // namespace autoscan

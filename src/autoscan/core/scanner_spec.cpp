@@ -1,12 +1,16 @@
 #include "autoscan/core/scanner_spec.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
+#include <initializer_list>
+#include <limits>
+#include <nlohmann/json.hpp>
 #include <numbers>
+#include <type_traits>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/json_io.hpp"
+#include "autoscan/core/types.hpp"
 
 namespace autoscan {
 
@@ -18,20 +22,24 @@ double ScannerSpec::vertical_fov_deg() const {
 void ScannerSpec::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(std::isfinite(near) && std::isfinite(far) && near > 0, "{}: near must be a positive number", what);
   AUTOSCAN_REQUIRE(near < far, "{}: near ({}) must be smaller than far ({})", what, near, far);
+  // Ranges are bounded before they reach the ray tracer (types.hpp, kMaxCoordinate).
+  AUTOSCAN_REQUIRE(far <= kMaxCoordinate, "{}: far ({}) is beyond {:g}, the largest supported range", what, far,
+                   kMaxCoordinate);
   AUTOSCAN_REQUIRE(fov_deg > 0 && fov_deg < 180, "{}: fov_deg must be in (0, 180), got {}", what, fov_deg);
   AUTOSCAN_REQUIRE(projector_fov_deg > 0 && projector_fov_deg < 180,
                    "{}: projector_fov_deg must be in (0, 180), got {}", what, projector_fov_deg);
-  AUTOSCAN_REQUIRE(width > 0 && height > 0 && width <= 16384 && height <= 16384,
-                   "{}: resolution {}x{} is out of range", what, width, height);
-  AUTOSCAN_REQUIRE(std::isfinite(baseline) && baseline >= 0, "{}: baseline must be >= 0", what);
-  AUTOSCAN_REQUIRE(max_incidence_deg > 0 && max_incidence_deg <= 90, "{}: max_incidence_deg must be in (0, 90]",
-                   what);
+  AUTOSCAN_REQUIRE(width > 0 && height > 0 && width <= 16384 && height <= 16384, "{}: resolution {}x{} is out of range",
+                   what, width, height);
+  AUTOSCAN_REQUIRE(std::isfinite(baseline) && baseline >= 0 && baseline <= kMaxCoordinate,
+                   "{}: baseline must be in [0, {:g}], got {}", what, kMaxCoordinate, baseline);
+  AUTOSCAN_REQUIRE(max_incidence_deg > 0 && max_incidence_deg <= 90, "{}: max_incidence_deg must be in (0, 90]", what);
   const auto& n = noise;
   AUTOSCAN_REQUIRE(n.magnitude >= 0 && n.magnitude <= 1, "{}: noise magnitude must be in [0, 1], got {}", what,
                    n.magnitude);
   for (double v : {n.depth_sigma, n.depth_distance_power, n.depth_incidence_gain, n.outlier_fraction, n.outlier_range,
                    n.pose_translation_sigma, n.pose_rotation_sigma_deg})
-    AUTOSCAN_REQUIRE(std::isfinite(v) && v >= 0, "{}: noise parameters must be finite and >= 0", what);
+    AUTOSCAN_REQUIRE(std::isfinite(v) && v >= 0 && v <= kMaxCoordinate,
+                     "{}: noise parameters must be finite, >= 0 and <= {:g}, got {}", what, kMaxCoordinate, v);
   AUTOSCAN_REQUIRE(n.outlier_fraction <= 1, "{}: outlier_fraction must be <= 1", what);
 }
 
@@ -62,20 +70,35 @@ void read_field(const nlohmann::json& j, const char* key, T& out, const std::str
   if (!j.contains(key)) return;
   const auto& v = j.at(key);
   AUTOSCAN_REQUIRE(v.is_number(), "{}: '{}' must be a number", what, key);
-  out = v.get<T>();
+  const double d = v.get<double>();
+  if constexpr (std::is_integral_v<T>) {
+    // A whole number the field's type holds (no silent truncation or wrap-around).
+    AUTOSCAN_REQUIRE(d == std::floor(d) && d >= static_cast<double>(std::numeric_limits<T>::min()) &&
+                         d <= static_cast<double>(std::numeric_limits<T>::max()),
+                     "{}: '{}' must be a whole number in [{}, {}], got {}", what, key, std::numeric_limits<T>::min(),
+                     std::numeric_limits<T>::max(), v.dump());
+    out = v.is_number_float() ? static_cast<T>(d) : v.get<T>();
+  } else {
+    out = d;
+  }
+}
+
+void require_known_fields(const nlohmann::json& j, std::initializer_list<const char*> known, const std::string& what,
+                          const char* where) {
+  for (const auto& [k, v] : j.items()) {
+    bool ok = false;
+    for (auto* n : known) ok = ok || k == n;
+    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}{}'", what, where, k);
+  }
 }
 }  // namespace
 
 ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: a scanner spec must be a JSON object", what);
   ScannerSpec s;
-  static const char* known[] = {"near", "far", "fov_deg", "width", "height", "baseline", "projector_fov_deg",
-                                "max_incidence_deg", "noise"};
-  for (const auto& [k, v] : j.items()) {
-    bool ok = false;
-    for (auto* n : known) ok = ok || k == n;
-    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}'", what, k);
-  }
+  require_known_fields(
+      j, {"near", "far", "fov_deg", "width", "height", "baseline", "projector_fov_deg", "max_incidence_deg", "noise"},
+      what, "");
   read_field(j, "near", s.near, what);
   read_field(j, "far", s.far, what);
   read_field(j, "fov_deg", s.fov_deg, what);
@@ -90,6 +113,10 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
       s.noise.magnitude = n.get<double>();
     } else {
       AUTOSCAN_REQUIRE(n.is_object(), "{}: 'noise' must be a number or an object", what);
+      require_known_fields(n,
+                           {"magnitude", "depth_sigma", "depth_distance_power", "depth_incidence_gain",
+                            "outlier_fraction", "outlier_range", "pose_translation_sigma", "pose_rotation_sigma_deg"},
+                           what, "noise.");
       read_field(n, "magnitude", s.noise.magnitude, what);
       read_field(n, "depth_sigma", s.noise.depth_sigma, what);
       read_field(n, "depth_distance_power", s.noise.depth_distance_power, what);
@@ -104,11 +131,6 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
   return s;
 }
 
-ScannerSpec load_scanner(const std::string& path) {
-  const auto text = read_text_file(path);
-  auto j = nlohmann::json::parse(text, nullptr, false);
-  AUTOSCAN_REQUIRE(!j.is_discarded(), "{}: not valid JSON", path);
-  return scanner_from_json(j, path);
-}
+ScannerSpec load_scanner(const std::string& path) { return scanner_from_json(read_json_file(path), path); }
 
 }  // namespace autoscan

@@ -3,7 +3,6 @@
 // unless a comment says otherwise. Normalised benchmark frame: bounding-box diagonal 1, centred at the
 // origin, Z up (see shapes/normalize.hpp).
 #include <Eigen/Core>
-
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -17,6 +16,18 @@ using Mat3 = Eigen::Matrix3d;
 using Mat4 = Eigen::Matrix4d;
 using Rgb = std::array<std::uint8_t, 3>;
 using Tri = std::array<int, 3>;
+
+/// The largest magnitude of a coordinate, distance or range accepted from any input (geometry
+/// files, JSON, the command line). Far beyond any scanned scene in metres or millimetres, yet far
+/// below the ~1.8e18 beyond which Embree's single-precision rays are invalid (it aborts on such a
+/// ray), and its square and sums stay finite in double. Inputs are checked against it where they
+/// enter (docs/architecture.md, Conventions).
+inline constexpr double kMaxCoordinate = 1e12;
+
+/// True when every component of `v` is finite and within ±kMaxCoordinate.
+inline bool within_coordinate_range(const Vec3& v) {
+  return v.allFinite() && v.cwiseAbs().maxCoeff() <= kMaxCoordinate;
+}
 
 /// Axis-aligned bounding box. Empty when min > max on any axis (the default).
 struct AABB {

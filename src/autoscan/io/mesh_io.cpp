@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <new>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/io/detail_parse.hpp"
@@ -51,12 +52,11 @@ FileFormat format_from_extension(const fs::path& path) {
                ext.empty() ? std::string("no extension") : ext);
 }
 
-GeometryFile read_geometry(const fs::path& path) {
-  const std::string p = path.string();
-  const FileFormat fmt = format_from_extension(path);
-  const std::string bytes = detail::load_file(path);
+namespace {
+
+GeometryFile read_geometry_unchecked(const std::string& p, FileFormat kind, const std::string& bytes) {
   GeometryFile g;
-  switch (fmt) {
+  switch (kind) {
     case FileFormat::ply:
       g = detail::read_ply(p, bytes);
       break;
@@ -69,6 +69,25 @@ GeometryFile read_geometry(const fs::path& path) {
     case FileFormat::stl:
       g = detail::read_stl(p, bytes);
       break;
+  }
+  return g;
+}
+
+}  // namespace
+
+GeometryFile read_geometry(const fs::path& path) {
+  const std::string p = path.string();
+  const FileFormat kind = format_from_extension(path);
+  GeometryFile g;
+  try {
+    // Counts are checked against the file's size before anything is allocated, but a large valid
+    // file still takes about twice its size or more in memory (double coordinates).
+    g = read_geometry_unchecked(p, kind, detail::load_file(path));
+  } catch (const std::bad_alloc&) {
+    std::error_code ec;
+    const auto size = fs::file_size(path, ec);
+    throw InputError(fmt::format("{}: too large to read: out of memory ({:.1f} MB file)", p,
+                                 ec ? 0.0 : static_cast<double>(size) / 1e6));
   }
   // Readers check as they go; this is the final guarantee of the contract.
   g.vertices.validate(p);

@@ -33,6 +33,7 @@ GeometryFile read_obj(const std::string& path, const std::string& bytes) {
   std::vector<int> normal_of;  // per vertex, index into vn or -1
   bool all_colored = true;
   std::size_t corners_with_normals = 0;
+  long long texcoords = 0;  // "vt" statements so far: a corner's texture index must name one
   TextReader t(bytes, path, '#');
   std::vector<int> poly, poly_n;
   std::vector<std::string_view> tok;
@@ -45,14 +46,20 @@ GeometryFile read_obj(const std::string& path, const std::string& bytes) {
         t.fail("a vertex needs 3 coordinates (optionally w and/or r g b), got {} values", tok.size());
       Vec3 p;
       for (int k = 0; k < 3; ++k) p[k] = t.number(tok[k], "vertex coordinate");
-      if (tok.size() == 4 || tok.size() == 7) (void)t.number(tok[3], "vertex weight w");
+      if (tok.size() == 4 || tok.size() == 7)
+        if (!std::isfinite(t.number(tok[3], "vertex weight w")))
+          t.fail("vertex {} has a non-finite weight w", pc.positions.size() + 1);
       if (!p.allFinite()) t.fail("vertex {} has a non-finite coordinate (NaN or Inf)", pc.positions.size() + 1);
+      if (!within_coordinate_range(p))
+        t.fail("vertex {} has a coordinate beyond ±{:g}, the largest supported magnitude", pc.positions.size() + 1,
+               kMaxCoordinate);
       pc.positions.push_back(p);
       if (tok.size() >= 6) {
         const std::size_t o = tok.size() - 3;
         Rgb c;
         for (int k = 0; k < 3; ++k) {
           const double x = t.number(tok[o + k], "vertex colour");
+          if (!std::isfinite(x)) t.fail("vertex {} has a non-finite colour", pc.positions.size());
           c[k] = to_byte(x * 255.0);
         }
         colors.push_back(c);
@@ -63,6 +70,9 @@ GeometryFile read_obj(const std::string& path, const std::string& bytes) {
       Vec3 n;
       for (int k = 0; k < 3; ++k) n[k] = t.number(t.token_in_line(), "normal component");
       if (!n.allFinite()) t.fail("normal {} has a non-finite component (NaN or Inf)", vn.size() + 1);
+      if (!within_coordinate_range(n))
+        t.fail("normal {} has a component beyond ±{:g}, the largest supported magnitude", vn.size() + 1,
+               kMaxCoordinate);
       vn.push_back(n);
     } else if (kw == "f" || kw == "fo") {
       poly.clear();
@@ -77,8 +87,20 @@ GeometryFile read_obj(const std::string& path, const std::string& bytes) {
         poly.push_back(static_cast<int>(idx));
         int n_idx = -1;
         if (slash != std::string_view::npos) {
+          // v/vt, v/vt/vn or v//vn: every part that is present is an index in range.
           const auto rest = s.substr(slash + 1);
           const auto slash2 = rest.find('/');
+          const auto vt = rest.substr(0, slash2);
+          if (vt.empty() && slash2 == std::string_view::npos)
+            t.fail("face corner '{}' has a '/' but no texture index", TextReader::shorten(s));
+          if (!vt.empty()) {
+            const long long j = t.integer(vt, "face texture index");
+            const long long jdx = j < 0 ? texcoords + j : j - 1;
+            if (j == 0 || jdx < 0 || jdx >= texcoords)
+              t.fail("face texture index {} is out of range ({} texture coordinates defined so far)", j, texcoords);
+          }
+          if (slash2 != std::string_view::npos && slash2 + 1 == rest.size())
+            t.fail("face corner '{}' has a '/' but no normal index", TextReader::shorten(s));
           if (slash2 != std::string_view::npos && slash2 + 1 < rest.size()) {
             long long j = t.integer(rest.substr(slash2 + 1), "face normal index");
             const auto nn = static_cast<long long>(vn.size());
@@ -99,6 +121,8 @@ GeometryFile read_obj(const std::string& path, const std::string& bytes) {
           normal_of[poly[k]] = poly_n[k];
           ++corners_with_normals;
         }
+    } else if (kw == "vt") {
+      ++texcoords;
     } else if (!known_ignored_statement(kw)) {
       t.fail("unknown OBJ statement '{}'", TextReader::shorten(kw));
     }

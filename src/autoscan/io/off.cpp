@@ -59,7 +59,6 @@ GeometryFile read_off(const std::string& path, const std::string& bytes) {
   pc.positions.reserve(static_cast<std::size_t>(nv));
   if (nrm) pc.normals.reserve(static_cast<std::size_t>(nv));
   std::vector<Rgb> colors;
-  bool all_colored = col;
   std::vector<std::string_view> v;
   for (long long i = 0; i < nv; ++i) {
     if (!t.next_line()) t.fail("truncated: the header says {} vertices but the file ends after {}", nv, i);
@@ -74,30 +73,35 @@ GeometryFile read_off(const std::string& path, const std::string& bytes) {
       p /= w;
     }
     if (!p.allFinite()) t.fail("vertex {} has a non-finite coordinate (NaN or Inf)", i);
+    if (!within_coordinate_range(p))
+      t.fail("vertex {} has a coordinate beyond ±{:g}, the largest supported magnitude", i, kMaxCoordinate);
     pc.positions.push_back(p);
     if (nrm) {
       Vec3 n;
       for (int c = 0; c < 3; ++c) n[c] = t.number(v[ncoord + c], "normal component");
       if (!n.allFinite()) t.fail("vertex {} has a non-finite normal (NaN or Inf)", i);
+      if (!within_coordinate_range(n))
+        t.fail("vertex {} has a normal component beyond ±{:g}, the largest supported magnitude", i, kMaxCoordinate);
       pc.normals.push_back(n);
     }
     if (col) {
-      const std::size_t extra = v.size() - nfixed - (st ? 2 : 0);
-      if (v.size() < nfixed + (st ? 2 : 0) || extra < 3) {
-        all_colored = false;
-        continue;
-      }
+      // A C[N]OFF vertex carries r g b [a] after its coordinates (and normal), then s t for ST.
+      const std::size_t before = nfixed + (st ? 2 : 0);
+      const std::size_t extra = v.size() > before ? v.size() - before : 0;
+      if (extra < 3 || extra > 4)
+        t.fail("vertex {} has {} colour values; a {} vertex needs r g b or r g b a", i, extra, kw);
       Rgb c;
       for (int ch = 0; ch < 3; ++ch) {
         const auto s = v[nfixed + ch];
         double x = t.number(s, "colour component");
+        if (!std::isfinite(x)) t.fail("vertex {} has a non-finite colour component", i);
         if (s.find('.') != std::string_view::npos || s.find('e') != std::string_view::npos) x *= 255.0;
         c[ch] = to_byte(x);
       }
       colors.push_back(c);
     }
   }
-  if (all_colored && colors.size() == pc.positions.size()) pc.colors = std::move(colors);
+  if (col) pc.colors = std::move(colors);
 
   g.faces.reserve(static_cast<std::size_t>(nf));
   std::vector<int> poly;

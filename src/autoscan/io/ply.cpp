@@ -4,7 +4,9 @@
 // "vertex_indices" (or "vertex_index") list gives polygons, fan-triangulated. Every other element,
 // list property or face property is skipped, in every encoding.
 #include <cmath>
+#include <limits>
 #include <optional>
+#include <unordered_set>
 
 #include "autoscan/io/detail_parse.hpp"
 
@@ -44,6 +46,34 @@ std::size_t type_size(PlyType t) {
 }
 
 bool is_float(PlyType t) { return t == PlyType::f32 || t == PlyType::f64; }
+
+/// The range of values type `t` holds (a float's finite range for f32 and f64).
+std::pair<double, double> type_range(PlyType t) {
+  switch (t) {
+    case PlyType::i8:
+      return {-128.0, 127.0};
+    case PlyType::u8:
+      return {0.0, 255.0};
+    case PlyType::i16:
+      return {-32768.0, 32767.0};
+    case PlyType::u16:
+      return {0.0, 65535.0};
+    case PlyType::i32:
+      return {-2147483648.0, 2147483647.0};
+    case PlyType::u32:
+      return {0.0, 4294967295.0};
+    case PlyType::f32:
+      return {-std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
+    case PlyType::f64:
+      return {std::numeric_limits<double>::lowest(), std::numeric_limits<double>::max()};
+  }
+  return {0.0, 0.0};
+}
+
+/// At most this many properties in one file (over all elements) and this many elements: a header
+/// beyond them is refused before any data is read (no real PLY comes near them).
+constexpr std::size_t kMaxPlyProperties = 16384;
+constexpr std::size_t kMaxPlyElements = 16384;
 
 const char* type_name(PlyType t) {
   static const char* names[] = {"char", "uchar", "short", "ushort", "int", "uint", "float", "double"};
@@ -95,6 +125,9 @@ PlyHeader parse_header(const std::string& path, const std::string& bytes) {
   };
   std::string_view line;
   if (!next_line(line) || line != "ply") fail(path, "not a PLY file (the first line is not 'ply')");
+  // Names seen so far (views into `bytes`), so that duplicate checks stay linear in the header.
+  std::unordered_set<std::string_view> element_names, property_names;
+  std::size_t properties = 0;
   while (next_line(line)) {
     for (char c : line) {
       const auto u = static_cast<unsigned char>(c);
@@ -135,9 +168,12 @@ PlyHeader parse_header(const std::string& path, const std::string& bytes) {
       if (!parse_int(tok[2], c) || c < 0)
         fail(path, "line {}: element '{}' has an invalid count '{}'", line_no, TextReader::shorten(tok[1]),
              TextReader::shorten(tok[2]));
-      for (const auto& e : h.elements)
-        if (e.name == tok[1]) fail(path, "line {}: element '{}' is declared twice", line_no, e.name);
+      if (!element_names.insert(tok[1]).second)
+        fail(path, "line {}: element '{}' is declared twice", line_no, TextReader::shorten(tok[1]));
+      if (h.elements.size() >= kMaxPlyElements)
+        fail(path, "line {}: more than {} elements in the PLY header (corrupt header?)", line_no, kMaxPlyElements);
       h.elements.push_back({std::string(tok[1]), static_cast<std::uint64_t>(c), {}, line_no});
+      property_names.clear();
     } else if (kw == "property") {
       if (h.elements.empty()) fail(path, "line {}: property declared before any element", line_no);
       PlyProperty prop;
@@ -159,10 +195,11 @@ PlyHeader parse_header(const std::string& path, const std::string& bytes) {
         prop.type = *t;
         prop.name = std::string(tok[2]);
       }
-      for (const auto& q : h.elements.back().props)
-        if (q.name == prop.name)
-          fail(path, "line {}: property '{}' is declared twice in element '{}'", line_no, prop.name,
-               h.elements.back().name);
+      if (!property_names.insert(tok.back()).second)
+        fail(path, "line {}: property '{}' is declared twice in element '{}'", line_no, TextReader::shorten(tok.back()),
+             h.elements.back().name);
+      if (++properties > kMaxPlyProperties)
+        fail(path, "line {}: more than {} properties in the PLY header (corrupt header?)", line_no, kMaxPlyProperties);
       h.elements.back().props.push_back(std::move(prop));
     } else {
       fail(path, "line {}: unknown PLY header keyword '{}'", line_no, TextReader::shorten(kw));
@@ -227,11 +264,14 @@ struct VertexSinks {
   }
   /// Ends vertex `i`; returns a message when it is invalid.
   const char* finish() {
+    static_assert(kMaxCoordinate == 1e12, "the messages below name the bound");
     pos.push_back(p);
     if (has_normals) nrm.push_back(n);
     if (has_colors) col.push_back(c);
     if (!p.allFinite()) return "has a non-finite coordinate (NaN or Inf)";
     if (has_normals && !n.allFinite()) return "has a non-finite normal (NaN or Inf)";
+    if (!within_coordinate_range(p)) return "has a coordinate beyond ±1e12, the largest supported magnitude";
+    if (has_normals && !within_coordinate_range(n)) return "has a normal component beyond ±1e12";
     return nullptr;
   }
 };
@@ -258,23 +298,41 @@ double read_binary(ByteReader& r, PlyType t) {
   return 0;
 }
 
+/// The next ASCII value: a number of `type` (finite, within the type's range), or InputError naming
+/// the line, the element, the item and the property.
 double read_ascii(TextReader& t, PlyType type, const PlyElement& e, std::uint64_t item, const std::string& prop) {
   const auto tok = t.token();
   if (tok.empty())
     t.fail("truncated: the file ends inside element '{}' item {} of {} (property '{}')", e.name, item, e.count, prop);
   double v;
   if (is_float(type)) {
-    if (!parse_double(tok, v))
+    if (!parse_double(tok, v)) {
+      // from_chars reports a value beyond double's range (1e999) as an error, not as inf.
+      const auto r = std::from_chars(tok.data() + (tok.front() == '+'), tok.data() + tok.size(), v);
+      if (r.ec == std::errc::result_out_of_range && r.ptr == tok.data() + tok.size())
+        t.fail("'{}' overflows the property's type {} (element '{}' item {}, property '{}')", TextReader::shorten(tok),
+               type_name(type), e.name, item, prop);
       t.fail("'{}' is not a number (element '{}' item {}, property '{}')", TextReader::shorten(tok), e.name, item,
              prop);
-    return v;
+    }
+    if (!std::isfinite(v))
+      t.fail("non-finite value '{}' (element '{}' item {}, property '{}')", TextReader::shorten(tok), e.name, item,
+             prop);
+  } else {
+    long long i;
+    if (parse_int(tok, i)) {
+      v = static_cast<double>(i);
+    } else if (!(parse_double(tok, v) && std::isfinite(v) && v == std::floor(v))) {
+      // Integral values written with a decimal point ("3.0") are tolerated; nothing else.
+      t.fail("'{}' is not an integer (element '{}' item {}, property '{}' of type {})", TextReader::shorten(tok),
+             e.name, item, prop, type_name(type));
+    }
   }
-  long long i;
-  if (parse_int(tok, i)) return static_cast<double>(i);
-  // Tolerate integral values written with a decimal point ("3.0").
-  if (parse_double(tok, v) && std::isfinite(v) && v == std::floor(v)) return v;
-  t.fail("'{}' is not an integer (element '{}' item {}, property '{}' of type {})", TextReader::shorten(tok), e.name,
-         item, prop, type_name(type));
+  const auto [lo, hi] = type_range(type);
+  if (v < lo || v > hi)
+    t.fail("'{}' overflows the property's type {} (element '{}' item {}, property '{}')", TextReader::shorten(tok),
+           type_name(type), e.name, item, prop);
+  return v;
 }
 
 }  // namespace
@@ -319,11 +377,12 @@ GeometryFile read_ply(const std::string& path, const std::string& bytes) {
       find("green")->sink = Sink::green;
       find("blue")->sink = Sink::blue;
     }
+    // The header has no duplicate names, so columns are appended without a (linear) lookup each.
     for (auto& p : vertex->props) {
       if (p.is_list || p.sink != Sink::skip) continue;
       p.sink = Sink::scalar;
       p.scalar = pc.scalars.size();
-      pc.scalars.set(p.name, {});
+      pc.scalars.columns().emplace_back(p.name, std::vector<double>{});
     }
   }
   if (face) {
@@ -434,7 +493,10 @@ GeometryFile read_ply(const std::string& path, const std::string& bytes) {
               r.skip(len * type_size(p.type));
             }
           } else if (is_vertex) {
-            sinks.put(p, read_binary(r, p.type));
+            const double v = read_binary(r, p.type);
+            if (!std::isfinite(v))
+              fail(path, "vertex {} has a non-finite value (NaN or Inf) in property '{}'", i, p.name);
+            sinks.put(p, v);
           } else {
             r.skip(type_size(p.type));
           }

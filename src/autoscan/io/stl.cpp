@@ -56,6 +56,8 @@ GeometryFile read_binary_stl(const std::string& path, const std::string& bytes, 
       Vec3 p;
       for (int k = 0; k < 3; ++k) p[k] = r.read<float>();
       if (!p.allFinite()) fail(path, "triangle {} has a non-finite coordinate (NaN or Inf)", f);
+      if (!within_coordinate_range(p))
+        fail(path, "triangle {} has a coordinate beyond ±{:g}, the largest supported magnitude", f, kMaxCoordinate);
       t[c] = weld.add(p);
     }
     r.skip(2);  // attribute byte count
@@ -92,6 +94,8 @@ GeometryFile read_ascii_stl(const std::string& path, const std::string& bytes) {
       }
       if (tok != "facet") t.fail("expected 'facet' or 'endsolid', found '{}'", TextReader::shorten(tok));
       expect("normal");
+      // The facet normal is recomputed from the vertices, never used: exporters write NaN for a
+      // degenerate facet, which is no reason to refuse the file.
       for (int k = 0; k < 3; ++k) (void)t.number(t.token(), "facet normal component");
       expect("outer");
       expect("loop");
@@ -104,6 +108,8 @@ GeometryFile read_ascii_stl(const std::string& path, const std::string& bytes) {
         Vec3 p;
         for (int k = 0; k < 3; ++k) p[k] = t.number(t.token(), "vertex coordinate");
         if (!p.allFinite()) t.fail("vertex has a non-finite coordinate (NaN or Inf)");
+        if (!within_coordinate_range(p))
+          t.fail("vertex has a coordinate beyond ±{:g}, the largest supported magnitude", kMaxCoordinate);
         poly.push_back(weld.add(p));
         g.stl_corners++;
       }

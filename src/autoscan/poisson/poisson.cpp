@@ -911,8 +911,8 @@ std::shared_ptr<FieldData> Solver::run(const Vec3& origin, double width) {
 
 }  // namespace
 
-PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, ProgressCallback progress) {
-  Stopwatch total;
+void PoissonOptions::validate() const {
+  const PoissonOptions& opt = *this;
   AUTOSCAN_REQUIRE(opt.depth >= 2 && opt.depth <= 12, "poisson: depth {} out of range [2, 12]", opt.depth);
   AUTOSCAN_REQUIRE(opt.full_depth >= 1 && opt.full_depth <= 8, "poisson: full_depth {} out of range [1, 8]",
                    opt.full_depth);
@@ -933,6 +933,11 @@ PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, Pr
                    "poisson: coarse_tolerance must be > 0");
   AUTOSCAN_REQUIRE(std::isfinite(opt.trim) && opt.trim >= 0.0 && opt.trim < 1.0, "poisson: trim {} out of range [0, 1)",
                    opt.trim);
+}
+
+PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, ProgressCallback progress) {
+  Stopwatch total;
+  opt.validate();
   cloud.validate("poisson input");
   AUTOSCAN_REQUIRE(cloud.size() >= std::max<std::size_t>(opt.min_points, 4),
                    "poisson input: {} points, at least {} are needed", cloud.size(),

@@ -54,6 +54,10 @@ struct PoissonOptions {
   int vertex_refinement = 2;
   double trim = 0.0;            ///< drop mesh vertices whose density is below this quantile, in [0, 1) (0 = keep all)
   std::size_t min_points = 10;  ///< fewer points than this is an InputError
+
+  /// Throws InputError naming the first option out of range (reconstruct() calls it; callers that
+  /// reconstruct later, like a simulation, call it before any work).
+  void validate() const;
 };
 
 /// Per-depth diagnostics.

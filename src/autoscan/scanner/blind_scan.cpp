@@ -13,7 +13,8 @@ void BlindScanOptions::validate() const {
   AUTOSCAN_REQUIRE(!elevations_deg.empty(), "blind scan: at least one elevation is needed");
   for (double e : elevations_deg)
     AUTOSCAN_REQUIRE(std::isfinite(e) && e >= -90 && e <= 90, "blind scan: elevation {} is outside [-90, 90]", e);
-  AUTOSCAN_REQUIRE(std::isfinite(distance) && distance >= 0, "blind scan: distance must be >= 0, got {}", distance);
+  AUTOSCAN_REQUIRE(std::isfinite(distance) && distance >= 0 && distance <= kMaxCoordinate,
+                   "blind scan: distance must be in [0, {:g}], got {}", kMaxCoordinate, distance);
   AUTOSCAN_REQUIRE(std::isfinite(azimuth_offset_deg), "blind scan: azimuth_offset_deg must be finite");
 }
 

@@ -19,8 +19,8 @@ struct BlindScanOptions {
   double distance = 0.0;                             ///< distance from the centre; 0 = the spec's d_o (Figure 2(b))
   double azimuth_offset_deg = 0.0;  ///< azimuth of the first view; ring k is staggered by half a step for odd k
   std::uint64_t first_scan_id = 0;  ///< scan ids are first_scan_id, first_scan_id + 1, ...
-  /// Throws InputError for views < 1, no rings, elevations outside [-90, 90], a negative or
-  /// non-finite distance.
+  /// Throws InputError for views < 1, no rings, elevations outside [-90, 90], a negative,
+  /// non-finite or larger than kMaxCoordinate distance.
   void validate() const;
 };
 

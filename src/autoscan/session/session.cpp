@@ -589,7 +589,7 @@ Session Session::open(const fs::path& dir) {
   json j;
   try {
     j = json::parse(read_text_file(dir / "session.json"));
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for 1e999
     throw InputError(fmt::format("{}: not valid JSON: {}", where, e.what()));
   }
   AUTOSCAN_REQUIRE(j.is_object() && j.value("format", "") == kFormat, "{}: not an autoscan session file", where);

@@ -22,6 +22,7 @@ using nlohmann::json;
 
 void SimulateOptions::validate() const {
   session.validate();
+  session.poisson.validate();  // before the blind scan, not after it (a depth of 99 fails at once)
   scanner.validate("scanner");
   rig.validate("rig");
   blind.validate();
