@@ -21,7 +21,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+std::string q(const fs::path& p) {
+  std::string s = "'";  // appended, not "'" + string: GCC 12's -Wrestrict false positive on operator+
+  s += p.string();
+  s += '\'';
+  return s;
+}
 
 /// A 2x2x2 cube centred at the origin, as OFF.
 fs::path write_cube(const fs::path& dir) {
@@ -208,5 +213,45 @@ TEST(CliHardening, OutOfMemoryWhileReadingNamesTheFile) {
   r.err = read_text(err);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find(big.string() + ": too large to read: out of memory"), std::string::npos) << r.err;
+  fs::remove_all(dir);
+}
+
+// Item 4: a corrupt `scans` field in session.json made `session status` move the acknowledged scans
+// into scans/orphaned/ and then fail with a raw type_error; null or [] were accepted (exit 0) and
+// orphaned every scan. Now exit 2 naming the file and the field, and nothing is moved.
+TEST(CliHardening, ACorruptScansFieldInSessionJsonMovesNothing) {
+  const auto dir = fresh_dir("cli_hard_scans");
+  const auto sdir = dir / "s";
+  ASSERT_EQ(run_cli("session init " + q(sdir)).code, 0);
+  autoscan::Rng rng(5);
+  for (int k = 0; k < 3; ++k) {
+    std::string ply =
+        "ply\nformat ascii 1.0\nelement vertex 64\nproperty float x\nproperty float y\nproperty float z\n"
+        "end_header\n";
+    for (int i = 0; i < 64; ++i) {
+      const autoscan::Vec3 u = 0.25 * rng.unit_vector();
+      ply += std::to_string(u.x()) + " " + std::to_string(u.y()) + " " + std::to_string(u.z()) + "\n";
+    }
+    write_text(dir / "scan.ply", ply);
+    ASSERT_EQ(
+        run_cli("session add-scan " + q(sdir) + " --cloud " + q(dir / "scan.ply") + " --pose 1.2,0,0,-1,0,0").code, 0);
+  }
+  const auto good = read_text(sdir / "session.json");
+  for (const char* bad : {R"({"a": 1})", R"("text")", "7", "null", "[]"}) {
+    auto j = nlohmann::json::parse(good);
+    j["scans"] = nlohmann::json::parse(bad);
+    write_text(sdir / "session.json", j.dump(1));
+    const auto r = run_cli("session status " + q(sdir));
+    EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;
+    EXPECT_NE(r.err.find((sdir / "session.json").string() + ": scans"), std::string::npos) << bad << "\n" << r.err;
+    EXPECT_EQ(r.err.find("json.exception"), std::string::npos) << bad << "\n" << r.err;
+    EXPECT_FALSE(fs::exists(sdir / "scans" / "orphaned")) << bad;
+    for (const char* name : {"scan_0000.ply", "scan_0001.ply", "scan_0002.ply"})
+      EXPECT_TRUE(fs::exists(sdir / "scans" / name)) << bad << ": " << name;
+  }
+  write_text(sdir / "session.json", good);
+  const auto r = run_cli("session status " + q(sdir) + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["status"]["scans"], 3);
   fs::remove_all(dir);
 }

@@ -5,7 +5,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <climits>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <regex>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -50,6 +54,70 @@ Eigen::Isometry3d matrix_from_json(const json& m, const std::string& what) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.matrix() = M;
   return T;
+}
+
+// ---- strict readers of session.json: type and range checked, the field named (issue 21) -----------
+
+std::string brief(const json& v) {
+  std::string s = v.dump();
+  return s.size() > 40 ? s.substr(0, 37) + "..." : s;
+}
+
+const json& member(const json& j, const char* key, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object (got {})", what, brief(j));
+  AUTOSCAN_REQUIRE(j.contains(key), "{}.{}: missing", what, key);
+  return j.at(key);
+}
+
+long long integer_in(const json& v, const std::string& what, long long lo, long long hi) {
+  bool ok = v.is_number_integer();
+  long long x = 0;
+  if (ok && v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    ok = u <= static_cast<std::uint64_t>(LLONG_MAX);
+    x = static_cast<long long>(u);
+  } else if (ok) {
+    x = v.get<long long>();
+  }
+  AUTOSCAN_REQUIRE(ok && x >= lo && x <= hi, "{}: expected an integer in [{}, {}] (got {})", what, lo, hi, brief(v));
+  return x;
+}
+
+double number_in(const json& v, const std::string& what, double lo, double hi) {
+  AUTOSCAN_REQUIRE(v.is_number() && std::isfinite(v.get<double>()) && v.get<double>() >= lo && v.get<double>() <= hi,
+                   "{}: expected a number in [{}, {}] (got {})", what, lo, hi, brief(v));
+  return v.get<double>();
+}
+
+bool boolean(const json& v, const std::string& what) {
+  AUTOSCAN_REQUIRE(v.is_boolean(), "{}: expected true or false (got {})", what, brief(v));
+  return v.get<bool>();
+}
+
+std::string string_or_null(const json& v, const std::string& what) {
+  AUTOSCAN_REQUIRE(v.is_null() || v.is_string(), "{}: expected a string or null (got {})", what, brief(v));
+  return v.is_string() ? v.get<std::string>() : std::string();
+}
+
+const json& object_or_null(const json& v, const std::string& what) {
+  AUTOSCAN_REQUIRE(v.is_null() || v.is_object(), "{}: expected an object or null (got {})", what, brief(v));
+  return v;
+}
+
+constexpr long long kMaxCount = LLONG_MAX;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A world-frame correction must be rigid: a rotation (orthonormal, determinant +1), a bounded
+// translation and the row 0 0 0 1.
+void require_rigid(const Eigen::Isometry3d& T, const std::string& what) {
+  const Eigen::Matrix3d R = T.linear();
+  const double orthogonality = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const bool last_row = (T.matrix().row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() < 1e-9;
+  AUTOSCAN_REQUIRE(orthogonality < 1e-6 && R.determinant() > 0.0 && last_row,
+                   "{}: not a rigid transform (a rotation and a translation; rotation off by {:.3g})", what,
+                   orthogonality);
+  AUTOSCAN_REQUIRE(T.translation().cwiseAbs().maxCoeff() <= kMaxCoordinate, "{}: translation beyond {:g}", what,
+                   kMaxCoordinate);
 }
 
 // Applies a rigid correction to a scan: positions, normals and the sensor position scalars.
@@ -102,13 +170,14 @@ io::WriteOptions exact_ply() {
 
 json pose_or_null(const std::optional<Pose>& p) { return p ? to_json(*p) : json(nullptr); }
 
-// Removes temporary files a crash may have left (write_file_atomic's ".NAME.tmp.PID.N").
+// Removes temporary files a crash may have left: only write_file_atomic's own ".NAME.tmp.PID.N".
 void remove_temporaries(const fs::path& dir) {
+  static const std::regex pattern(R"(\..+\.tmp\.\d+\.\d+)");
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (!name.empty() && name[0] == '.' && name.find(".tmp.") != std::string::npos && e.is_regular_file(ec)) {
+    if (std::regex_match(name, pattern) && e.is_regular_file(ec)) {
       fs::remove(e.path(), ec);
       log::warn("{}: removed a temporary file left by an interrupted write", e.path().string());
     }
@@ -200,77 +269,106 @@ json to_json(const SessionStatus& s) {
 
 namespace {
 
-ScanRecord scan_from_json(const json& j, const std::string& what) {
-  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object", what);
+ScanRecord scan_from_json(const json& j, const std::string& what, int expected_id, int iterations) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object (got {})", what, brief(j));
   ScanRecord r;
-  try {
-    r.id = j.at("id").get<int>();
-    r.points = j.at("points").get<std::size_t>();
-    r.inserted = j.at("inserted").get<std::size_t>();
-    r.model_iteration = j.at("model_iteration").get<int>();
-    r.seconds_registration = j.at("seconds").at("registration").get<double>();
-    r.seconds_insertion = j.at("seconds").at("insertion").get<double>();
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(fmt::format("{}: {}", what, e.what()));
+  r.id = static_cast<int>(integer_in(member(j, "id", what), what + ".id", 0, INT_MAX));
+  AUTOSCAN_REQUIRE(r.id == expected_id, "{}.id: scan id {} out of order (expected {})", what, r.id, expected_id);
+  if (j.contains("file")) {
+    const std::string file = "scans/" + scan_stem(r.id) + ".ply";
+    AUTOSCAN_REQUIRE(j.at("file").is_string() && j.at("file").get<std::string>() == file, "{}.file: expected \"{}\"",
+                     what, file);
   }
-  r.reported_pose = pose_from_json(j.at("pose"), what + ".pose");
-  r.registered_pose = pose_from_json(j.at("registered_pose"), what + ".registered_pose");
-  r.correction = matrix_from_json(j.at("correction"), what + ".correction");
-  if (j.contains("global_registration")) r.global_registration = j.at("global_registration");
+  r.points = static_cast<std::size_t>(integer_in(member(j, "points", what), what + ".points", 0, kMaxCount));
+  r.inserted = static_cast<std::size_t>(
+      integer_in(member(j, "inserted", what), what + ".inserted", 0, static_cast<long long>(r.points)));
+  r.model_iteration =
+      static_cast<int>(integer_in(member(j, "model_iteration", what), what + ".model_iteration", -1, iterations - 1));
+  const json& secs = member(j, "seconds", what);
+  r.seconds_registration =
+      number_in(member(secs, "registration", what + ".seconds"), what + ".seconds.registration", 0.0, kInf);
+  r.seconds_insertion = number_in(member(secs, "insertion", what + ".seconds"), what + ".seconds.insertion", 0.0, kInf);
+  r.reported_pose = pose_from_json(member(j, "pose", what), what + ".pose");
+  r.registered_pose = pose_from_json(member(j, "registered_pose", what), what + ".registered_pose");
+  r.correction = matrix_from_json(member(j, "correction", what), what + ".correction");
+  require_rigid(r.correction, what + ".correction");
+  if (j.contains("global_registration"))
+    r.global_registration = object_or_null(j.at("global_registration"), what + ".global_registration");
+  if (j.contains("registration_accepted")) boolean(j.at("registration_accepted"), what + ".registration_accepted");
   if (j.contains("excluded")) {
-    AUTOSCAN_REQUIRE(j.at("excluded").is_boolean(), "{}.excluded: expected true or false", what);
-    r.excluded = j.at("excluded").get<bool>();
-    if (r.excluded && j.contains("excluded_reason") && j.at("excluded_reason").is_string())
-      r.excluded_reason = j.at("excluded_reason").get<std::string>();
+    r.excluded = boolean(j.at("excluded"), what + ".excluded");
+    if (j.contains("excluded_reason")) {
+      const std::string reason = string_or_null(j.at("excluded_reason"), what + ".excluded_reason");
+      if (r.excluded) r.excluded_reason = reason;
+    }
   }
-  if (j.contains("registration") && j.at("registration").is_object()) {
+  if (j.contains("registration") && !object_or_null(j.at("registration"), what + ".registration").is_null()) {
     const auto& g = j.at("registration");
+    const std::string w = what + ".registration";
+    auto num = [&](const char* key) {
+      return g.contains(key) ? number_in(g.at(key), w + "." + key, -kInf, kInf) : 0.0;
+    };
+    auto count = [&](const char* key) {
+      return g.contains(key) ? static_cast<std::size_t>(integer_in(g.at(key), w + "." + key, 0, kMaxCount))
+                             : std::size_t{0};
+    };
+    auto flag = [&](const char* key) { return g.contains(key) ? boolean(g.at(key), w + "." + key) : false; };
     registration::IcpResult ir;
-    ir.method = g.value("method", "");
-    ir.iterations = g.value("iterations", 0);
-    ir.converged = g.value("converged", false);
-    ir.degenerate = g.value("degenerate", false);
-    ir.uniform_weights = g.value("uniform_weights", false);
-    ir.rms_before = g.value("rms_before", 0.0);
-    ir.rms_after = g.value("rms_after", 0.0);
-    ir.inlier_fraction = g.value("inlier_fraction", 0.0);
-    ir.correspondences = g.value("correspondences", std::size_t{0});
-    ir.source_points_used = g.value("source_points_used", std::size_t{0});
-    ir.correction_translation = g.value("correction_translation", 0.0);
-    ir.correction_rotation_deg = g.value("correction_rotation_deg", 0.0);
-    ir.max_correspondence_distance = g.value("max_correspondence_distance", 0.0);
-    ir.seconds = g.value("seconds", 0.0);
-    ir.correction = matrix_from_json(g.at("correction"), what + ".registration.correction");
+    ir.method = g.contains("method") ? string_or_null(g.at("method"), w + ".method") : "";
+    ir.iterations =
+        g.contains("iterations") ? static_cast<int>(integer_in(g.at("iterations"), w + ".iterations", 0, INT_MAX)) : 0;
+    ir.converged = flag("converged");
+    ir.degenerate = flag("degenerate");
+    ir.uniform_weights = flag("uniform_weights");
+    ir.rms_before = num("rms_before");
+    ir.rms_after = num("rms_after");
+    ir.inlier_fraction = num("inlier_fraction");
+    ir.correspondences = count("correspondences");
+    ir.source_points_used = count("source_points_used");
+    ir.correction_translation = num("correction_translation");
+    ir.correction_rotation_deg = num("correction_rotation_deg");
+    ir.max_correspondence_distance = num("max_correspondence_distance");
+    ir.seconds = num("seconds");
+    ir.correction = matrix_from_json(member(g, "correction", w), w + ".correction");
     ir.transform = ir.correction;
     r.registration = ir;
   }
   return r;
 }
 
-IterationRecord iteration_from_json(const json& j, const std::string& what) {
+IterationRecord iteration_from_json(const json& j, const std::string& what, int expected_index) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object (got {})", what, brief(j));
   IterationRecord r;
-  try {
-    r.index = j.at("index").get<int>();
-    r.scans = j.at("scans").get<std::vector<int>>();
-    r.raw_points = j.at("points").get<std::size_t>();
-    r.consolidated_points = j.at("consolidated_points").get<std::size_t>();
-    r.mesh_vertices = j.at("mesh_vertices").get<std::size_t>();
-    r.iso_points = j.at("iso_points").get<std::size_t>();
-    r.views = j.at("views").get<int>();
-    r.mean_f = j.at("mean_f").get<double>();
-    r.mean_f_g = j.at("mean_f_g").get<double>();
-    r.mean_f_s = j.at("mean_f_s").get<double>();
-    r.delta_mean_f = j.at("delta_mean_f").get<double>();
-    r.path_length = j.at("path_length").get<double>();
-    for (const auto& [k, v] : j.at("seconds").items()) r.seconds[k] = v.get<double>();
-    r.planner_diagnostics = j.at("planner");
-    if (j.contains("registration")) r.registration = j.at("registration");
-    r.truth = j.at("truth");
-    r.stopped = j.at("stopped").get<bool>();
-    r.stop_reason = j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(fmt::format("{}: {}", what, e.what()));
-  }
+  r.index = static_cast<int>(integer_in(member(j, "index", what), what + ".index", 0, INT_MAX));
+  AUTOSCAN_REQUIRE(r.index == expected_index, "{}.index: {} out of order (expected {})", what, r.index, expected_index);
+  const json& scans = member(j, "scans", what);
+  AUTOSCAN_REQUIRE(scans.is_array(), "{}.scans: expected an array of scan ids (got {})", what, brief(scans));
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    r.scans.push_back(static_cast<int>(integer_in(scans[i], fmt::format("{}.scans[{}]", what, i), 0, INT_MAX)));
+  auto count = [&](const char* key) {
+    return static_cast<std::size_t>(integer_in(member(j, key, what), what + "." + key, 0, kMaxCount));
+  };
+  auto num = [&](const char* key, double lo, double hi) {
+    return number_in(member(j, key, what), what + "." + key, lo, hi);
+  };
+  r.raw_points = count("points");
+  r.consolidated_points = count("consolidated_points");
+  r.mesh_vertices = count("mesh_vertices");
+  r.iso_points = count("iso_points");
+  r.views = static_cast<int>(integer_in(member(j, "views", what), what + ".views", 0, INT_MAX));
+  r.mean_f = num("mean_f", -kInf, kInf);
+  r.mean_f_g = num("mean_f_g", -kInf, kInf);
+  r.mean_f_s = num("mean_f_s", -kInf, kInf);
+  r.delta_mean_f = num("delta_mean_f", -kInf, kInf);
+  r.path_length = num("path_length", 0.0, kInf);
+  const json& secs = member(j, "seconds", what);
+  AUTOSCAN_REQUIRE(secs.is_object(), "{}.seconds: expected an object (got {})", what, brief(secs));
+  for (const auto& [k, v] : secs.items()) r.seconds[k] = number_in(v, what + ".seconds." + k, 0.0, kInf);
+  r.planner_diagnostics = member(j, "planner", what);
+  if (j.contains("registration")) r.registration = object_or_null(j.at("registration"), what + ".registration");
+  r.truth = object_or_null(member(j, "truth", what), what + ".truth");
+  r.stopped = boolean(member(j, "stopped", what), what + ".stopped");
+  r.stop_reason = string_or_null(member(j, "stop_reason", what), what + ".stop_reason");
   return r;
 }
 
@@ -315,12 +413,18 @@ struct Session::Impl {
 
   fs::path session_json() const { return dir / "session.json"; }
 
+  // The lock is held on an open descriptor of the session directory itself: no file whose deletion
+  // would break it (issue 21).
   void lock() {
-    const fs::path p = dir / ".lock";
-    lock_fd = ::open(p.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (lock_fd < 0) throw RuntimeError(fmt::format("{}: cannot create the lock file", p.string()));
-    if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
-      throw InputError(fmt::format("{}: the session is in use by another process", dir.string()));
+    lock_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (lock_fd < 0)
+      throw RuntimeError(fmt::format("{}: cannot open the session directory: {}", dir.string(), std::strerror(errno)));
+    if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0) {
+      const int err = errno;
+      if (err == EWOULDBLOCK)
+        throw InputError(fmt::format("{}: the session is in use by another process", dir.string()));
+      throw RuntimeError(fmt::format("{}: cannot lock the session directory: {}", dir.string(), std::strerror(err)));
+    }
   }
 
   int pending_from() const {
@@ -352,7 +456,8 @@ struct Session::Impl {
             {"stop_reason", stop_reason.empty() ? json(nullptr) : json(stop_reason)}};
   }
 
-  void persist() const { write_text_atomic(session_json(), to_json_all().dump(1) + "\n"); }
+  void persist() const { write_session_json(to_json_all()); }
+  void write_session_json(const json& all) const { write_text_atomic(session_json(), all.dump(1) + "\n"); }
 
   void make_planner_object() {
     planners::PlannerOptions po;
@@ -592,55 +697,91 @@ Session Session::open(const fs::path& dir) {
   } catch (const json::exception& e) {  // parse_error, or out_of_range for 1e999
     throw InputError(fmt::format("{}: not valid JSON: {}", where, e.what()));
   }
-  AUTOSCAN_REQUIRE(j.is_object() && j.value("format", "") == kFormat, "{}: not an autoscan session file", where);
-  AUTOSCAN_REQUIRE(j.value("version", 0) == kVersion, "{}: unsupported version {}", where, j.value("version", 0));
-  for (const char* key : {"scanner", "rig", "params", "scans", "iterations"})
-    AUTOSCAN_REQUIRE(j.contains(key), "{}: missing '{}'", where, key);
-  impl->scanner = scanner_from_json(j.at("scanner"), where + ": scanner");
-  impl->rig = rig_from_json(j.at("rig"), where + ": rig");
-  impl->options = session_options_from_json(j.at("params"), {}, where + ": params");
-  impl->options.validate();
-  if (j.contains("current_pose") && !j.at("current_pose").is_null())
-    impl->current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
-  impl->views_planned = j.value("views_planned", 0);
-  impl->stopped = j.value("stopped", false);
-  impl->stop_reason =
-      j.contains("stop_reason") && j.at("stop_reason").is_string() ? j.at("stop_reason").get<std::string>() : "";
-  for (std::size_t i = 0; i < j.at("iterations").size(); ++i)
-    impl->iterations.push_back(iteration_from_json(j.at("iterations")[i], fmt::format("{}: iterations[{}]", where, i)));
+  // 1. The whole file is validated (types, ranges, consistency) before anything is applied or any
+  //    file is touched: a file that cannot be read moves no data (issue 21).
+  std::vector<ScanRecord> records;
+  try {
+    AUTOSCAN_REQUIRE(j.is_object() && j.value("format", "") == kFormat, "{}: not an autoscan session file", where);
+    AUTOSCAN_REQUIRE(j.contains("version") && j.at("version") == kVersion, "{}: version: unsupported version {}", where,
+                     j.contains("version") ? brief(j.at("version")) : std::string("(missing)"));
+    for (const char* key : {"scanner", "rig", "params", "scans", "iterations"})
+      AUTOSCAN_REQUIRE(j.contains(key), "{}: missing '{}'", where, key);
+    impl->scanner = scanner_from_json(j.at("scanner"), where + ": scanner");
+    impl->rig = rig_from_json(j.at("rig"), where + ": rig");
+    impl->options = session_options_from_json(j.at("params"), {}, where + ": params");
+    impl->options.validate();
+    if (j.contains("current_pose") && !j.at("current_pose").is_null())
+      impl->current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
+    if (j.contains("views_planned"))
+      impl->views_planned = static_cast<int>(integer_in(j.at("views_planned"), where + ": views_planned", 0, INT_MAX));
+    if (j.contains("stopped")) impl->stopped = boolean(j.at("stopped"), where + ": stopped");
+    if (j.contains("stop_reason")) impl->stop_reason = string_or_null(j.at("stop_reason"), where + ": stop_reason");
+    const json& scans_j = j.at("scans");
+    const json& iters_j = j.at("iterations");
+    AUTOSCAN_REQUIRE(scans_j.is_array(), "{}: scans: expected an array of scan records (got {})", where,
+                     brief(scans_j));
+    AUTOSCAN_REQUIRE(iters_j.is_array(), "{}: iterations: expected an array of iteration records (got {})", where,
+                     brief(iters_j));
+    for (std::size_t i = 0; i < iters_j.size(); ++i)
+      impl->iterations.push_back(
+          iteration_from_json(iters_j[i], fmt::format("{}: iterations[{}]", where, i), static_cast<int>(i)));
+    const int n_iterations = static_cast<int>(impl->iterations.size());
+    for (std::size_t i = 0; i < scans_j.size(); ++i)
+      records.push_back(
+          scan_from_json(scans_j[i], fmt::format("{}: scans[{}]", where, i), static_cast<int>(i), n_iterations));
+    // Each scan belongs to at most one iteration, in order; every scan an iteration lists exists.
+    int next = 0;
+    for (std::size_t k = 0; k < impl->iterations.size(); ++k) {
+      const auto& ids = impl->iterations[k].scans;
+      for (std::size_t i = 0; i < ids.size(); ++i) {
+        AUTOSCAN_REQUIRE(ids[i] < static_cast<int>(records.size()),
+                         "{}: iterations[{}].scans[{}]: scan {} does not exist (session.json lists {} scans)", where, k,
+                         i, ids[i], records.size());
+        AUTOSCAN_REQUIRE(ids[i] >= next, "{}: iterations[{}].scans[{}]: scan {} listed out of order or twice", where, k,
+                         i, ids[i]);
+        next = ids[i] + 1;
+      }
+    }
+    std::size_t model_points = 0;
+    for (const auto& r : records)
+      if (!r.excluded) model_points += r.inserted;
+    if (j.contains("model_points")) {
+      const auto stated = integer_in(j.at("model_points"), where + ": model_points", 0, kMaxCount);
+      AUTOSCAN_REQUIRE(static_cast<std::size_t>(stated) == model_points,
+                       "{}: scans: the scans listed hold {} inserted points but model_points says {}: session.json "
+                       "is inconsistent; nothing was moved",
+                       where, model_points, stated);
+    }
+  } catch (const json::exception& e) {  // a type the checks above did not foresee: still named
+    throw InputError(fmt::format("{}: {}", where, e.what()));
+  }
   impl->make_planner_object();
 
-  // Tidy up after a crash: temporary files, then scan files that no session.json references.
-  remove_temporaries(dir);
-  remove_temporaries(dir / "scans");
-  for (const auto& it : impl->iterations) remove_temporaries(dir / "iterations" / iter_name(it.index));
-  const std::size_t referenced = j.at("scans").size();
+  // 2. Scan files session.json does not name. A crash during add_scan leaves at most the files of the
+  //    next id (written, never acknowledged): those are set aside below. Anything beyond means that
+  //    session.json does not describe this directory (edited, truncated, or an older copy): refused,
+  //    nothing moved.
+  const std::size_t referenced = records.size();
+  std::vector<fs::path> orphans;
   if (fs::is_directory(dir / "scans", ec)) {
     static const std::regex pattern(R"(scan_(\d{4,})\.(ply|json))");
-    std::vector<fs::path> orphans;
     for (const auto& e : fs::directory_iterator(dir / "scans", ec)) {
       std::smatch m;
       const std::string name = e.path().filename().string();
-      if (std::regex_match(name, m, pattern) && std::stoul(m[1].str()) >= referenced) orphans.push_back(e.path());
-    }
-    std::sort(orphans.begin(), orphans.end());
-    if (!orphans.empty()) fs::create_directories(dir / "scans" / "orphaned", ec);
-    for (const auto& p : orphans) {
-      fs::path to;
-      for (int k = 0;; ++k) {
-        to = dir / "scans" / "orphaned" / fmt::format("{}.{}", p.filename().string(), k);
-        if (!fs::exists(to, ec)) break;
-      }
-      fs::rename(p, to, ec);
-      log::warn("{}: scan file not acknowledged before an interruption; moved to {}", p.string(), to.string());
+      if (!std::regex_match(name, m, pattern)) continue;
+      const std::string digits = m[1].str();
+      const std::size_t id = digits.size() > 9 ? std::numeric_limits<std::size_t>::max() : std::stoul(digits);
+      if (id < referenced) continue;
+      AUTOSCAN_REQUIRE(id == referenced,
+                       "{}: scans: lists {} scans but {} exists: session.json does not describe the scan files (was "
+                       "it edited or replaced?); nothing was moved",
+                       where, referenced, e.path().string());
+      orphans.push_back(e.path());
     }
   }
 
-  // Rebuild the model from the acknowledged scans, exactly as add_scan built it.
-  for (std::size_t i = 0; i < referenced; ++i) {
-    const std::string w = fmt::format("{}: scans[{}]", where, i);
-    ScanRecord rec = scan_from_json(j.at("scans")[i], w);
-    AUTOSCAN_REQUIRE(rec.id == static_cast<int>(i), "{}: scan id {} out of order", w, rec.id);
+  // 3. Rebuild the model from the acknowledged scans, exactly as add_scan built it (reads only).
+  for (auto& rec : records) {
     const fs::path file = dir / "scans" / (scan_stem(rec.id) + ".ply");
     PointCloud scan;
     if (rec.points > 0) {
@@ -662,7 +803,6 @@ Session Session::open(const fs::path& dir) {
     if (!rec.excluded) impl->append_to_model(scan, registered, keep);
     impl->reg_samples.push_back(rec.excluded ? PointCloud{} : impl->registration_sample(scan));
     impl->scans.push_back(std::move(rec));
-    // Model size when each iteration ran (for the "new" flags of the next cloud.ply).
   }
   {
     // Points inserted before the last iteration: the scans it (and earlier ones) used.
@@ -677,6 +817,28 @@ Session Session::open(const fs::path& dir) {
     PointCloud consolidated = io::read_point_cloud(idir / "consolidated.ply");
     PointCloud iso = io::read_point_cloud(idir / "iso.ply");
     impl->set_target(consolidated, iso);
+  }
+
+  // 4. Only now, with everything read and consistent, tidy up after a crash: temporary files of the
+  //    session's own atomic writes (in every iteration directory, recorded or not: an interrupted
+  //    next_views leaves them in the one it was writing), then the unacknowledged scan's files.
+  remove_temporaries(dir);
+  remove_temporaries(dir / "scans");
+  if (fs::is_directory(dir / "iterations", ec)) {
+    static const std::regex iter_pattern(R"(iter_\d{3,})");
+    for (const auto& e : fs::directory_iterator(dir / "iterations", ec))
+      if (std::regex_match(e.path().filename().string(), iter_pattern)) remove_temporaries(e.path());
+  }
+  std::sort(orphans.begin(), orphans.end());
+  if (!orphans.empty()) fs::create_directories(dir / "scans" / "orphaned", ec);
+  for (const auto& p : orphans) {
+    fs::path to;
+    for (int k = 0;; ++k) {
+      to = dir / "scans" / "orphaned" / fmt::format("{}.{}", p.filename().string(), k);
+      if (!fs::exists(to, ec)) break;
+    }
+    fs::rename(p, to, ec);
+    log::warn("{}: scan file not acknowledged before an interruption; moved to {}", p.string(), to.string());
   }
   return Session(std::move(impl));
 }
@@ -704,21 +866,39 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
   PointCloud registered = m.register_and_select(scan, rec, keep);
 
   // Persist: the scan file (as received, with the insertion flags), its sidecar, then session.json.
-  // Until session.json names it the scan is not acknowledged; open() sets such files aside.
+  // Until session.json names it the scan is not acknowledged; open() sets such files aside. A write
+  // that fails (a full disk) removes this call's files and changes nothing in memory: a retry does
+  // not leave another copy behind.
   const std::string stem = scan_stem(rec.id);
-  if (!scan.empty()) {
-    PointCloud stored = scan;
-    std::vector<double> ins(keep.begin(), keep.end());
-    stored.scalars.set("inserted", std::move(ins));
-    io::write_point_cloud(m.dir / "scans" / (stem + ".ply"), stored, exact_ply());
+  const fs::path ply_path = m.dir / "scans" / (stem + ".ply");
+  const fs::path json_path = m.dir / "scans" / (stem + ".json");
+  bool wrote_ply = false, wrote_json = false;
+  try {
+    if (!scan.empty()) {
+      PointCloud stored = scan;
+      std::vector<double> ins(keep.begin(), keep.end());
+      stored.scalars.set("inserted", std::move(ins));
+      io::write_point_cloud(ply_path, stored, exact_ply());
+      wrote_ply = true;
+    }
+    write_text_atomic(json_path, to_json(rec).dump(1) + "\n");
+    wrote_json = true;
+    json all = m.to_json_all();
+    all["scans"].push_back(to_json(rec));
+    all["model_points"] = m.model.size() + rec.inserted;
+    all["current_pose"] = to_json(rec.registered_pose);
+    m.write_session_json(all);
+  } catch (...) {
+    std::error_code ec;
+    if (wrote_ply) fs::remove(ply_path, ec);
+    if (wrote_json) fs::remove(json_path, ec);
+    throw;
   }
-  write_text_atomic(m.dir / "scans" / (stem + ".json"), to_json(rec).dump(1) + "\n");
   if (m.planner) m.planner->observe_scan(registered, rec.registered_pose);
   m.append_to_model(scan, registered, keep);
   m.reg_samples.push_back(m.registration_sample(scan));
   m.scans.push_back(rec);
   m.current_pose = rec.registered_pose;
-  m.persist();
   return rec;
 }
 
