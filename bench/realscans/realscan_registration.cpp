@@ -94,6 +94,7 @@ int main(int argc, char** argv) {
   int depth = 0;
   double prior_scale = 1.0, info_points = 0.0, robust = -1.0, trim = 0.0, incidence = 0.0, power = -1.0, disagree = 0.0,
          min_overlap = 0.0;
+  std::size_t samples = 0;
   int rounds = 0;
   std::string json_out;
   for (int a = 3; a < argc; ++a) {
@@ -129,6 +130,8 @@ int main(int argc, char** argv) {
       power = std::stod(next());
     else if (k == "--disagree")
       disagree = std::stod(next());
+    else if (k == "--samples")
+      samples = std::stoul(next());
     else if (k == "--min-overlap")
       min_overlap = std::stod(next());
     else {
@@ -187,6 +190,8 @@ int main(int argc, char** argv) {
   if (power >= 0) opt.multiway.incidence_gain = power;
   if (disagree > 0) opt.multiway.max_disagreement = disagree;
   if (min_overlap > 0) opt.multiway.min_overlap = min_overlap;
+  if (samples > 0)
+    opt.multiway.sample_points = samples, opt.multiway.target_points = std::max<std::size_t>(samples, 30000);
   opt.consolidate.wlop.noise_hint = 1.0;  // a real scanner: noisy
   if (depth > 0) opt.poisson.depth = depth;
   auto sess = session::Session::create(out, spec, rig, opt);
@@ -258,6 +263,38 @@ int main(int argc, char** argv) {
                   aa.angle() * 180 / std::numbers::pi, aa.axis().x(), aa.axis().y(), aa.axis().z(),
                   1e3 * Rz.translation().x(), 1e3 * Rz.translation().y(), 1e3 * Rz.translation().z());
     }
+  if (std::getenv("REALSCAN_DEBUG")) {
+    // A turntable turns the object by the same angle about one fixed axis between scans: how far
+    // the reference poses and the registered ones are from that (relative motion of neighbours).
+    auto turntable = [&](auto pose_of, const char* name) {
+      std::vector<Vec3> axes;
+      std::vector<double> angles;
+      for (std::size_t i = 0; i < scans.size(); ++i) {
+        const std::size_t j = (i + 1) % scans.size();
+        const Eigen::Isometry3d rel = pose_of(j) * pose_of(i).inverse();
+        const Eigen::AngleAxisd aa(rel.linear());
+        Vec3 ax = aa.axis();
+        if (ax.y() < 0) ax = -ax;
+        axes.push_back(ax);
+        angles.push_back(aa.angle() * 180 / std::numbers::pi);
+      }
+      Vec3 mean_axis = Vec3::Zero();
+      for (const auto& a : axes) mean_axis += a;
+      mean_axis.normalize();
+      double spread = 0, am = 0, ad = 0;
+      for (std::size_t k = 0; k < axes.size(); ++k) {
+        spread += std::acos(std::min(1.0, axes[k].dot(mean_axis))) * 180 / std::numbers::pi;
+        am += angles[k];
+      }
+      am /= angles.size();
+      for (double a : angles) ad += std::abs(a - am);
+      std::printf("%s: relative turn %.3f deg (mean |dev| %.4f deg), axis spread %.4f deg\n", name, am,
+                  ad / angles.size(), spread / axes.size());
+    };
+    turntable([&](std::size_t i) { return scans[i].pose; }, "turntable, reference poses");
+    turntable([&](std::size_t i) { return Eigen::Isometry3d(G * corr[i] * error[i] * scans[i].pose); },
+              "turntable, registered poses");
+  }
   if (std::getenv("REALSCAN_DEBUG")) {
     // Self-consistency: median nearest-neighbour distance between ring neighbours (within 5 mm).
     auto consistency = [&](auto place) {

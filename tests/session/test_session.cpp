@@ -605,6 +605,7 @@ session::SessionOptions global_options() {
   o.global_registration = true;
   o.multiway.robot_translation_sigma = 0.004;
   o.multiway.robot_rotation_sigma_deg = 0.5;
+  o.multiway.max_incidence_deg = 80.0;  // the bumpy scans reach 70 degrees from the view direction
   return o;
 }
 

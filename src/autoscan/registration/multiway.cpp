@@ -56,15 +56,11 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
   PointCloud all;
   all.positions = stride_sample(scan.positions, o.target_points, c);
   // Normals from a local plane fit, and the target points projected onto their plane: on a noisy
-  // scan the raw points' scatter would otherwise enter every point-to-plane residual twice.
+  // scan the raw points' scatter would otherwise enter every point-to-plane residual twice. The
+  // fitted normals are used even when the scan brings its own: a range image's normals come from
+  // neighbouring pixels and carry the full depth noise (measured, docs/registration.md).
   std::vector<Vec3> projected;
-  const auto fitted = estimate_normals(all.positions, p.sensor, o.normal_k, &projected);
-  if (scan.has_normals()) {
-    for (std::size_t i = 0; i < scan.size(); i += stride_for(scan.size(), o.target_points))
-      all.normals.push_back(scan.normals[i]);
-  } else {
-    all.normals = fitted;
-  }
+  all.normals = estimate_normals(all.positions, p.sensor, o.normal_k, &projected);
   // Outliers (far from their neighbours' plane) stay out: beyond 4 times the median distance.
   std::vector<double> off(all.size());
   for (std::size_t i = 0; i < all.size(); ++i) off[i] = (all.positions[i] - projected[i]).norm();
@@ -537,7 +533,10 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     res.scans[i].correction_translation = C.translation().norm();
     res.scans[i].correction_rotation_deg = rotation_angle_deg(C);
   }
-  for (auto& w : work) res.pairs.push_back(w.report);
+  for (auto& w : work) {
+    w.report.measurement = from_centred(w.measurement, c);
+    res.pairs.push_back(w.report);
+  }
   res.seconds = clock.seconds();
   prog.report(1.0);
   return res;

@@ -44,18 +44,25 @@ struct MultiwayOptions {
   std::size_t target_points = 30000;  ///< ICP target points per scan (with normals)
   int normal_k = 20;  ///< neighbours of the local plane fit (normals when a scan has none; denoised targets)
   /// Points seen at a larger angle between their normal and the ray to the sensor stay out of the
-  /// registration: their depth is the least accurate (docs/registration.md).
-  double max_incidence_deg = 80.0;
+  /// registration: their depth is the least accurate, and on a curved surface depth noise along the
+  /// ray biases them outwards (by about σ² sin²θ / 2R), which pulls every pair apart along the lines
+  /// of sight. Measured on the virtual scanner at noise 0.5 (docs/registration.md): 80 → 60 degrees
+  /// cuts the pairwise ICP's bias from 0.5 to 0.1 × 10⁻³ of the diagonal.
+  double max_incidence_deg = 60.0;
   /// Quality weighting: a point's depth σ grows as 1 + incidence_gain · tan(incidence) (the
   /// scanner noise model's incidence term, NoiseSpec::depth_incidence_gain), a pair of points weighs
   /// 1/(σ_a² + σ_b²). A range scanner's depth is least accurate, and biased, at grazing angles
-  /// (docs/registration.md: measured on the real dragon_stand scans).
-  double incidence_gain = 0.0;
+  /// (docs/registration.md). Default 1: the virtual scanner's model; the Cyberware scans of
+  /// dragon_stand want about 10.
+  double incidence_gain = 1.0;
   int rounds = 3;                 ///< pairwise ICP + graph solve rounds
   double max_disagreement = 3.0;  ///< drop a pair whose implied displacement exceeds this × its RMS
   double outlier_sigma = 5.0;     ///< flag a scan whose correction is beyond this many σ (Mahalanobis)
-  bool free_neighbors = true;     ///< also free the anchors that overlap a free scan
-  double robust_scale = 3.0;      ///< PoseGraphOptions::robust_scale
+  /// Also free the anchors that overlap a free scan. Off by default: measured on bunny00 at noise 0.5
+  /// (docs/benchmarks.md) the older scans, registered before against as many neighbours, only get
+  /// worse when new noisy pairs may move them, and the iteration costs more.
+  bool free_neighbors = false;
+  double robust_scale = 3.0;  ///< PoseGraphOptions::robust_scale
   /// A pair's information is its ICP normal matrix H (Σ J Jᵀ over its n overlapping points) over
   /// its residual², scaled to this many independent points: H · (information_points / n) / rms².
   /// Neighbouring points of a scan are not independent (shared calibration and smoothing errors).
@@ -75,6 +82,9 @@ struct MultiwayPair {
   double disagreement = 0.0;  ///< RMS displacement the graph's solution implies against the pair's optimum
   bool used = false;          ///< in the final graph
   std::string dropped;        ///< why not: "disagrees", "degenerate", "flagged scan"
+  /// The pair's ICP result as a relative placement (world frame): scan i corrected by C_i lands on
+  /// scan j corrected by C_j when C_j⁻¹ C_i = measurement.
+  Eigen::Isometry3d measurement = Eigen::Isometry3d::Identity();
 };
 
 struct MultiwayScanReport {

@@ -1,5 +1,6 @@
 #include "autoscan/simulation/simulate.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <optional>
 #include <set>
@@ -133,6 +134,8 @@ json SimulateResult::to_json() const {
           {"checkpoints", checkpoints},
           {"pose_error_before", pose_error_before},
           {"pose_error_after", pose_error_after},
+          {"pose_error_before_fit", pose_error_before_fit},
+          {"pose_error_after_fit", pose_error_after_fit},
           {"best_iteration", best_iteration},
           {"best_mean_f", best_mean_f},
           {"best_truth", best_truth},
@@ -255,10 +258,13 @@ class Loop {
       const json e = refresh_registration_errors(s);
       r.pose_error_before = e["before"].get<double>();
       r.pose_error_after = e["after"].get<double>();
+      r.pose_error_before_fit = e["before_fit"].get<double>();
+      r.pose_error_after_fit = e["after_fit"].get<double>();
       log::info(
           "simulate: registration moved the scans' points from {:.5f} to {:.5f} (mean distance from where "
-          "they belong, {} scans)",
-          r.pose_error_before, r.pose_error_after, e["scans"].get<int>());
+          "they belong, {} scans; {:.5f} to {:.5f} after the best rigid fit of all scans to the truth)",
+          r.pose_error_before, r.pose_error_after, e["scans"].get<int>(), r.pose_error_before_fit,
+          r.pose_error_after_fit);
     }
     fill_checkpoints(s, r);
     r.checkpoints = checkpoints_;
@@ -335,6 +341,9 @@ class Loop {
   json refresh_registration_errors(const session::Session& s) {
     double b = 0, a = 0;
     int n = 0;
+    // Also after the one rigid motion that best fits all registered probes to their true places
+    // (where the world frame is, no registration can know better than the robot's accuracy).
+    std::vector<Vec3> reg_pts, rep_pts, true_pts;
     for (auto& e : registration_errors_) {
       const auto id = e.value("scan", -1);
       if (id < 0 || id >= static_cast<int>(s.scans().size()) || !e.contains("probes") || !e.contains("truth")) continue;
@@ -348,6 +357,11 @@ class Loop {
         const Vec3 p(q[0].get<double>(), q[1].get<double>(), q[2].get<double>());
         after += (rec.correction * p - truth * p).norm();
         ++count;
+        if (!rec.excluded) {
+          reg_pts.push_back(rec.correction * p);
+          rep_pts.push_back(p);
+          true_pts.push_back(truth * p);
+        }
       }
       e["after"] = count ? after / static_cast<double>(count) : 0.0;
       e["excluded"] = rec.excluded;
@@ -357,7 +371,23 @@ class Loop {
       ++n;
     }
     write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump());
-    return {{"before", n ? b / n : 0.0}, {"after", n ? a / n : 0.0}, {"scans", n}};
+    auto fitted = [&](const std::vector<Vec3>& from) {
+      if (from.size() < 3) return 0.0;
+      Eigen::Matrix3Xd A(3, static_cast<Eigen::Index>(from.size())), B(3, static_cast<Eigen::Index>(from.size()));
+      for (std::size_t k = 0; k < from.size(); ++k) {
+        A.col(static_cast<Eigen::Index>(k)) = from[k];
+        B.col(static_cast<Eigen::Index>(k)) = true_pts[k];
+      }
+      const Eigen::Isometry3d G(Eigen::Matrix4d(Eigen::umeyama(A, B, false)));
+      double sum = 0.0;
+      for (std::size_t k = 0; k < from.size(); ++k) sum += (G * from[k] - true_pts[k]).norm();
+      return sum / static_cast<double>(from.size());
+    };
+    return {{"before", n ? b / n : 0.0},
+            {"after", n ? a / n : 0.0},
+            {"before_fit", fitted(rep_pts)},
+            {"after_fit", fitted(reg_pts)},
+            {"scans", n}};
   }
 
   void blind_phase(session::Session& s) {

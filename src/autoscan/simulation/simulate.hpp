@@ -75,6 +75,8 @@ struct SimulateResult {
   /// scans' points from where they belong, with the reported pose (before) and after the session's
   /// correction (after). 0 when no scan was registered.
   double pose_error_before = 0.0, pose_error_after = 0.0;
+  /// The same after the one rigid motion that best fits all scans' probes to their true places.
+  double pose_error_before_fit = 0.0, pose_error_after_fit = 0.0;
   double seconds = 0.0;
   nlohmann::json to_json() const;
 };
