@@ -364,16 +364,21 @@ TEST(VirtualScanner, DepthNoiseAndOutliersMatchTheirModel) {
   EXPECT_NEAR(static_cast<double>(moved) / static_cast<double>(ro.size()), 0.05, 0.01);
 }
 
+namespace {
+// The InputError message `f` throws, or "no InputError".
+template <class F>
+std::string message(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return std::string(e.what());
+  }
+  return std::string("no InputError");
+}
+}  // namespace
+
 TEST(VirtualScanner, BadInputIsRefusedWithAClearMessage) {
   const TriangleMesh sphere = icosphere(2, kR);
-  auto message = [](auto&& f) {
-    try {
-      f();
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no InputError");
-  };
   EXPECT_NE(message([] { VirtualScanner(TriangleMesh{}, ScannerSpec{}); }).find("no triangles"), std::string::npos);
   ScannerSpec inverted;
   inverted.near = 1.6;
@@ -461,14 +466,6 @@ TEST(BlindScan, MergesTheScansWithTheirIds) {
 // a far but bounded pose scans (and sees nothing in range) without a crash.
 TEST(VirtualScanner, PosesAndRangesBeyondTheBoundNeverReachEmbree) {
   const TriangleMesh sphere = icosphere(2, kR);
-  auto message = [](auto&& f) {
-    try {
-      f();
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no InputError");
-  };
   const VirtualScanner scanner(sphere, small_spec(40, 30));
   Pose far_away;
   far_away.position = Vec3(1e20, 0, 0);
