@@ -24,4 +24,13 @@ nlohmann::json read_json_file(const std::filesystem::path& path) {
   return parse_json(read_text_file(path), path.string());
 }
 
+void require_known_fields(const nlohmann::json& j, std::initializer_list<const char*> known, const std::string& what,
+                          const char* where) {
+  for (const auto& [k, v] : j.items()) {
+    bool ok = false;
+    for (const char* n : known) ok = ok || k == n;
+    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}{}'", what, where, k);
+  }
+}
+
 }  // namespace autoscan

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/json_io.hpp"
 
 namespace autoscan {
 
@@ -103,13 +104,10 @@ nlohmann::json to_json(const Rig& r) {
 Rig rig_from_json(const nlohmann::json& j, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: a rig must be a JSON object", what);
   // Unknown fields are an error, as in a scanner spec: a typo must not pass silently.
-  static const char* known[] = {"kind",       "min_radius",    "max_radius",       "min_height",
-                                "max_height", "sphere_radius", "sphere_tolerance", "turntable_cost_per_rad"};
-  for (const auto& [k, v] : j.items()) {
-    bool ok = false;
-    for (auto* n : known) ok = ok || k == n;
-    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}'", what, k);
-  }
+  require_known_fields(j,
+                       {"kind", "min_radius", "max_radius", "min_height", "max_height", "sphere_radius",
+                        "sphere_tolerance", "turntable_cost_per_rad"},
+                       what);
   Rig r;
   if (j.contains("kind")) {
     AUTOSCAN_REQUIRE(j["kind"].is_string(), "{}: 'kind' must be a string", what);

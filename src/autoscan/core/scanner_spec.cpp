@@ -83,14 +83,6 @@ void read_field(const nlohmann::json& j, const char* key, T& out, const std::str
   }
 }
 
-void require_known_fields(const nlohmann::json& j, std::initializer_list<const char*> known, const std::string& what,
-                          const char* where) {
-  for (const auto& [k, v] : j.items()) {
-    bool ok = false;
-    for (auto* n : known) ok = ok || k == n;
-    AUTOSCAN_REQUIRE(ok, "{}: unknown field '{}{}'", what, where, k);
-  }
-}
 }  // namespace
 
 ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) {
