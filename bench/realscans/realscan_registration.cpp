@@ -190,8 +190,10 @@ int main(int argc, char** argv) {
   if (power >= 0) opt.multiway.incidence_gain = power;
   if (disagree > 0) opt.multiway.max_disagreement = disagree;
   if (min_overlap > 0) opt.multiway.min_overlap = min_overlap;
-  if (samples > 0)
-    opt.multiway.sample_points = samples, opt.multiway.target_points = std::max<std::size_t>(samples, 30000);
+  if (samples > 0) {
+    opt.multiway.sample_points = samples;
+    opt.multiway.target_points = std::max(samples, opt.multiway.target_points);
+  }
   opt.consolidate.wlop.noise_hint = 1.0;  // a real scanner: noisy
   if (depth > 0) opt.poisson.depth = depth;
   auto sess = session::Session::create(out, spec, rig, opt);
