@@ -50,8 +50,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   double noise = 0.5, gain = -1.0, info_points = 0.0, trim = 0.0, incidence = 0.0;
-  int views = 20, normal_k = 0, rounds = 0;
-  bool depth_noise = true;
+  int views = 20, normal_k = 0, rounds = 0, samples = 0, targets = 0;
+  bool depth_noise = true, no_outliers = false;
+  double noise_gain = -1.0, noise_power = -1.0;
   std::uint64_t seed = 1;
   for (int a = 2; a < argc; ++a) {
     const std::string k = argv[a];
@@ -76,6 +77,16 @@ int main(int argc, char** argv) {
       trim = std::stod(next());
     else if (k == "--rounds")
       rounds = std::stoi(next());
+    else if (k == "--noise-gain")
+      noise_gain = std::stod(next());
+    else if (k == "--noise-power")
+      noise_power = std::stod(next());
+    else if (k == "--samples")
+      samples = std::stoi(next());
+    else if (k == "--targets")
+      targets = std::stoi(next());
+    else if (k == "--no-outliers")
+      no_outliers = true;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -86,6 +97,9 @@ int main(int argc, char** argv) {
   normalize_to_benchmark_frame(mesh);
   ScannerSpec spec;
   spec.noise.magnitude = noise;
+  if (noise_gain >= 0.0) spec.noise.depth_incidence_gain = noise_gain;
+  if (noise_power >= 0.0) spec.noise.depth_distance_power = noise_power;
+  if (no_outliers) spec.noise.outlier_fraction = 0.0;
   if (!depth_noise) {
     spec.noise.depth_sigma = 0.0;
     spec.noise.outlier_fraction = 0.0;
@@ -145,6 +159,8 @@ int main(int argc, char** argv) {
   if (normal_k > 0) o.normal_k = normal_k;
   if (info_points > 0) o.information_points = info_points;
   if (rounds > 0) o.rounds = rounds;
+  if (samples > 0) o.sample_points = static_cast<std::size_t>(samples);
+  if (targets > 0) o.target_points = static_cast<std::size_t>(targets);
   if (trim > 0) o.icp.trim_fraction = trim;
   if (incidence > 0) o.max_incidence_deg = incidence;
   const auto res = registration::register_multiway(clouds, sensors, {}, {}, o);
@@ -209,5 +225,8 @@ int main(int argc, char** argv) {
     std::printf("pair rms after: median %.5f (min %.5f, max %.5f); depth sigma at d_o normal incidence %.5f\n",
                 rms[rms.size() / 2], rms.front(), rms.back(),
                 noise * spec.noise.depth_sigma * std::pow(spec.optimal_distance() / spec.near, 2.0));
+  std::printf("surface fit per scan (k, noise):");
+  for (const auto& sr : res.scans) std::printf(" %d/%.5f", sr.neighbors, sr.noise);
+  std::printf("\n");
   return 0;
 }

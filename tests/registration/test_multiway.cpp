@@ -259,3 +259,72 @@ TEST(Multiway, RejectsBadOptions) {
   std::vector<Vec3> sensors(1);
   EXPECT_THROW(register_multiway(scans, sensors, {}, {}, {}), InputError);
 }
+
+namespace {
+
+// A cap of a sphere of radius R (centre at the origin) seen from +z, noisy along the rays to the
+// sensor: the virtual scanner's depth noise in miniature.
+std::vector<Vec3> noisy_cap(double R, double sigma, std::uint64_t seed, const Vec3& sensor) {
+  Rng rng(seed);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 20000; ++i) {
+    Vec3 d = rng.unit_vector();
+    if (d.z() < 0.6) continue;
+    const Vec3 p = R * d;
+    pts.push_back(p + rng.normal(0.0, sigma) * (sensor - p).normalized());
+  }
+  return pts;
+}
+
+double mean_signed_offset(const std::vector<Vec3>& pts, double R) {
+  double s = 0.0;
+  for (const auto& p : pts) s += p.norm() - R;
+  return s / static_cast<double>(pts.size());
+}
+
+}  // namespace
+
+TEST(SurfaceFit, QuadricRemovesThePlanesCurvatureBias) {
+  // Oracle: the sphere. A plane over k neighbours of radius r sits about r²/4R inside a sphere; the
+  // quadric follows it.
+  const double R = 0.1;
+  const Vec3 sensor(0, 0, 1.0);
+  const auto pts = noisy_cap(R, 0.0, 3, sensor);
+  registration::SurfaceFitOptions o;
+  o.k = 200;
+  o.quadric = false;
+  const auto plane = registration::fit_scan_surface(pts, sensor, o);
+  o.quadric = true;
+  const auto quad = registration::fit_scan_surface(pts, sensor, o);
+  const double plane_bias = mean_signed_offset(plane.projected, R);
+  const double quad_bias = mean_signed_offset(quad.projected, R);
+  EXPECT_LT(plane_bias, -1e-5);  // inwards
+  EXPECT_LT(std::abs(quad_bias), 0.05 * std::abs(plane_bias));
+  for (std::size_t i = 0; i < pts.size(); i += 97) {
+    EXPECT_GT(quad.normals[i].dot(pts[i].normalized()), 0.999);  // outward = towards the sensor
+  }
+}
+
+TEST(SurfaceFit, NeighbourhoodGrowsWithTheNoiseAndDenoises) {
+  const double R = 0.1;
+  const Vec3 sensor(0, 0, 1.0);
+  const auto clean = registration::fit_scan_surface(noisy_cap(R, 0.0, 5, sensor), sensor);
+  const auto pts = noisy_cap(R, 0.003, 5, sensor);
+  const auto noisy = registration::fit_scan_surface(pts, sensor);
+  EXPECT_EQ(clean.neighbors, registration::SurfaceFitOptions{}.k_min);
+  EXPECT_LT(clean.noise, 1e-6);
+  EXPECT_NEAR(noisy.noise, 0.003, 0.001);  // the estimated scatter is the depth noise
+  EXPECT_GT(noisy.neighbors, 3 * clean.neighbors);
+  // Denoised: the projected points lie far closer to the sphere than the raw ones.
+  double raw = 0.0, den = 0.0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    raw += std::abs(pts[i].norm() - R);
+    den += std::abs(noisy.projected[i].norm() - R);
+  }
+  EXPECT_LT(den, 0.35 * raw);
+  EXPECT_NEAR(mean_signed_offset(noisy.projected, R), 0.0, 2e-4);
+  registration::SurfaceFitOptions bad;
+  bad.k_min = 50;
+  bad.k_max = 10;
+  EXPECT_THROW(registration::fit_scan_surface(pts, sensor, bad), InputError);
+}

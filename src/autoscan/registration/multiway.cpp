@@ -47,6 +47,8 @@ struct Prepared {
   std::unique_ptr<NearestNeighbors> tree;
   double spacing = 0.0;  // median nearest-neighbour distance within the target
   double range = 0.0;    // distance from the sensor to the scan's centroid
+  int neighbors = 0;     // of the local surface fit
+  double noise = 0.0;    // estimated scatter of the scan's points about their surface
   Vec3 sensor = Vec3::Zero();
 };
 
@@ -59,8 +61,13 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
   // scan the raw points' scatter would otherwise enter every point-to-plane residual twice. The
   // fitted normals are used even when the scan brings its own: a range image's normals come from
   // neighbouring pixels and carry the full depth noise (measured, docs/registration.md).
-  std::vector<Vec3> projected;
-  all.normals = estimate_normals(all.positions, p.sensor, o.normal_k, &projected);
+  SurfaceFitOptions fo = o.surface;
+  fo.k = o.normal_k;
+  SurfaceFit fit = fit_scan_surface(all.positions, p.sensor, fo);
+  p.neighbors = fit.neighbors;
+  p.noise = fit.noise;
+  all.normals = std::move(fit.normals);
+  std::vector<Vec3> projected = std::move(fit.projected);
   // Outliers (far from their neighbours' plane) stay out: beyond 4 times the median distance.
   std::vector<double> off(all.size());
   for (std::size_t i = 0; i < all.size(); ++i) off[i] = (all.positions[i] - projected[i]).norm();
@@ -224,6 +231,15 @@ Eigen::Isometry3d from_centred(const Eigen::Isometry3d& X, const Vec3& c) {
 
 }  // namespace
 
+void SurfaceFitOptions::validate(const std::string& what) const {
+  AUTOSCAN_REQUIRE(k == 0 || (k >= 3 && k <= 1000), "{}: k must be 0 (automatic) or in [3, 1000] (got {})", what, k);
+  AUTOSCAN_REQUIRE(std::isfinite(adaptive_factor) && adaptive_factor > 0.0,
+                   "{}: adaptive_factor must be finite and positive (got {})", what, adaptive_factor);
+  AUTOSCAN_REQUIRE(k_min >= 3 && k_max >= k_min && k_max <= 1000, "{}: need 3 <= k_min <= k_max <= 1000 (got {}, {})",
+                   what, k_min, k_max);
+  AUTOSCAN_REQUIRE(probe_k >= 10 && probe_k <= 1000, "{}: probe_k must be in [10, 1000] (got {})", what, probe_k);
+}
+
 void MultiwayOptions::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(std::isfinite(robot_translation_sigma) && robot_translation_sigma > 0.0,
                    "{}: robot_translation_sigma must be finite and positive (got {})", what, robot_translation_sigma);
@@ -236,7 +252,9 @@ void MultiwayOptions::validate(const std::string& what) const {
                    "{}: overlap_distance must be finite and >= 0 (got {})", what, overlap_distance);
   AUTOSCAN_REQUIRE(sample_points >= 100, "{}: sample_points must be at least 100 (got {})", what, sample_points);
   AUTOSCAN_REQUIRE(target_points >= 100, "{}: target_points must be at least 100 (got {})", what, target_points);
-  AUTOSCAN_REQUIRE(normal_k >= 3 && normal_k <= 200, "{}: normal_k must be in [3, 200] (got {})", what, normal_k);
+  AUTOSCAN_REQUIRE(normal_k == 0 || (normal_k >= 3 && normal_k <= 1000),
+                   "{}: normal_k must be 0 (automatic) or in [3, 1000] (got {})", what, normal_k);
+  surface.validate(what + ".surface");
   AUTOSCAN_REQUIRE(max_incidence_deg > 0.0 && max_incidence_deg <= 90.0,
                    "{}: max_incidence_deg must be in (0, 90] (got {})", what, max_incidence_deg);
   AUTOSCAN_REQUIRE(std::isfinite(incidence_gain) && incidence_gain >= 0.0,
@@ -252,34 +270,131 @@ void MultiwayOptions::validate(const std::string& what) const {
                    "{}: information_points must be finite and positive (got {})", what, information_points);
 }
 
-std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k,
-                                   std::vector<Vec3>* projected) {
-  std::vector<Vec3> normals(points.size(), Vec3::UnitZ());
-  if (projected) projected->assign(points.begin(), points.end());
-  if (points.size() < 3) return normals;
+namespace {
+
+// One point's local surface from its neighbours `idx` (docs/registration.md, "Denoised targets"): the
+// PCA plane, and with `quadric` the height function h(u, v) = c0 + c1 u + c2 v + c3 u² + c4 uv + c5 v²
+// over it (a jet of order 2, as Cazals & Pouget). Returns false when the fit is degenerate.
+struct LocalSurface {
+  Vec3 normal = Vec3::UnitZ();  // not yet oriented
+  Vec3 foot = Vec3::Zero();     // the point moved onto the fitted surface
+  double residual = 0.0;        // signed distance of the point from the fitted surface (along the normal)
+};
+
+bool fit_local_surface(std::span<const Vec3> points, std::span<const std::size_t> idx, const Vec3& p, bool quadric,
+                       LocalSurface& out) {
+  const std::size_t n = idx.size();
+  if (n < 3) return false;
+  Vec3 mean = Vec3::Zero();
+  for (const std::size_t m : idx) mean += points[m];
+  mean /= static_cast<double>(n);
+  Mat3 C = Mat3::Zero();
+  for (const std::size_t m : idx) {
+    const Vec3 d = points[m] - mean;
+    C.noalias() += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Mat3> es(C);
+  const Vec3 e0 = es.eigenvectors().col(0);
+  if (!e0.allFinite() || e0.squaredNorm() < 0.5) return false;
+  const Vec3 d = p - mean;
+  if (quadric && n >= 10) {
+    const Vec3 t1 = es.eigenvectors().col(2), t2 = es.eigenvectors().col(1);
+    Mat6 A = Mat6::Zero();
+    Vec6 b = Vec6::Zero();
+    for (const std::size_t m : idx) {
+      const Vec3 q = points[m] - mean;
+      const double u = q.dot(t1), v = q.dot(t2);
+      Vec6 row;
+      row << 1.0, u, v, u * u, u * v, v * v;
+      A.noalias() += row * row.transpose();
+      b.noalias() += row * q.dot(e0);
+    }
+    const Vec6 c = A.ldlt().solve(b);
+    if (c.allFinite()) {
+      const double u = d.dot(t1), v = d.dot(t2);
+      const double h = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+      const double hu = c[1] + 2.0 * c[3] * u + c[4] * v, hv = c[2] + c[4] * u + 2.0 * c[5] * v;
+      out.normal = (e0 - hu * t1 - hv * t2).normalized();
+      out.foot = mean + u * t1 + v * t2 + h * e0;
+      out.residual = (p - out.foot).dot(out.normal);
+      return out.normal.allFinite();
+    }
+  }
+  out.normal = e0;
+  out.residual = d.dot(e0);
+  out.foot = p - out.residual * e0;
+  return true;
+}
+
+}  // namespace
+
+SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, const SurfaceFitOptions& o) {
+  o.validate("surface fit");
+  SurfaceFit fit;
+  fit.normals.assign(points.size(), Vec3::UnitZ());
+  fit.projected.assign(points.begin(), points.end());
+  fit.neighbors = o.k > 0 ? o.k : o.k_min;
+  if (points.size() < 3) return fit;
   const NearestNeighbors nn(points);
+  std::vector<std::size_t> idx;
+  std::vector<double> d2;
+  // Noise and spacing from a few hundred evenly spread points: σ̂ = 1.4826 · median |residual| of a
+  // point from the quadric of its probe_k neighbours (curvature is absorbed by the quadric, so what
+  // is left is the scatter), s = median distance to the nearest other point.
+  {
+    const std::size_t step = std::max<std::size_t>(1, points.size() / 400);
+    std::vector<double> res, sp;
+    const int probe = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.probe_k), points.size()));
+    for (std::size_t i = 0; i < points.size(); i += step) {
+      const std::size_t n = nn.knn(points[i], static_cast<std::size_t>(probe), idx, d2);
+      if (n >= 2) sp.push_back(std::sqrt(d2[1]));
+      LocalSurface ls;
+      if (fit_local_surface(points, std::span(idx.data(), n), points[i], true, ls))
+        res.push_back(std::abs(ls.residual));
+    }
+    auto median = [](std::vector<double>& v) {
+      if (v.empty()) return 0.0;
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      return v[v.size() / 2];
+    };
+    fit.noise = 1.4826 * median(res);
+    fit.spacing = median(sp);
+  }
+  if (o.k <= 0) {
+    // The neighbourhood grows with the noise: a fit over k points leaves about σ √(6/k) of it, so
+    // k ∝ (σ/s)² keeps that a fixed share of the spacing-scale detail (measured, docs/registration.md).
+    const double ratio = fit.spacing > 0.0 ? fit.noise / fit.spacing : 0.0;
+    const double k = o.adaptive_factor * ratio * ratio;
+    fit.neighbors =
+        static_cast<int>(std::clamp(std::round(k), static_cast<double>(o.k_min), static_cast<double>(o.k_max)));
+  }
+  const auto k = static_cast<std::size_t>(fit.neighbors);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
-    std::vector<std::size_t> idx;
-    std::vector<double> d2;
+    std::vector<std::size_t> id;
+    std::vector<double> dd;
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const std::size_t n = nn.knn(points[i], static_cast<std::size_t>(k), idx, d2);
-      Vec3 mean = Vec3::Zero();
-      for (std::size_t m = 0; m < n; ++m) mean += points[idx[m]];
-      mean /= static_cast<double>(n);
-      Mat3 C = Mat3::Zero();
-      for (std::size_t m = 0; m < n; ++m) {
-        const Vec3 d = points[idx[m]] - mean;
-        C.noalias() += d * d.transpose();
+      const std::size_t n = nn.knn(points[i], k, id, dd);
+      LocalSurface ls;
+      Vec3 nrm = (sensor - points[i]).normalized();
+      if (fit_local_surface(points, std::span(id.data(), n), points[i], o.quadric, ls)) {
+        nrm = ls.normal;
+        fit.projected[i] = ls.foot;
       }
-      Eigen::SelfAdjointEigenSolver<Mat3> es(C);
-      Vec3 nrm = es.eigenvectors().col(0);
-      if (!nrm.allFinite() || nrm.squaredNorm() < 0.5) nrm = (sensor - points[i]).normalized();
       if (nrm.dot(sensor - points[i]) < 0.0) nrm = -nrm;
-      normals[i] = nrm;
-      if (projected) (*projected)[i] = points[i] - (points[i] - mean).dot(nrm) * nrm;
+      fit.normals[i] = nrm;
     }
   });
-  return normals;
+  return fit;
+}
+
+std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k,
+                                   std::vector<Vec3>* projected) {
+  SurfaceFitOptions o;
+  o.k = k;
+  o.quadric = false;
+  SurfaceFit fit = fit_scan_surface(points, sensor, o);
+  if (projected) *projected = std::move(fit.projected);
+  return std::move(fit.normals);
 }
 
 MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
@@ -415,6 +530,8 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     res.scans[i].free = free[i] != 0;
     res.scans[i].spacing = prep[i].spacing;
     res.scans[i].points_used = prep[i].target.size();
+    res.scans[i].neighbors = prep[i].neighbors;
+    res.scans[i].noise = prep[i].noise;
   }
   if (!pairs.empty()) res.overlap_distance = pair_distance(pairs.front().first, pairs.front().second);
 
@@ -565,6 +682,8 @@ nlohmann::json to_json(const MultiwayResult& r) {
                      {"pairs_used", s.pairs_used},
                      {"spacing", s.spacing},
                      {"points_used", s.points_used},
+                     {"neighbors", s.neighbors},
+                     {"noise", s.noise},
                      {"mahalanobis", s.mahalanobis},
                      {"correction_translation", s.correction_translation},
                      {"correction_rotation_deg", s.correction_rotation_deg}});

@@ -136,6 +136,14 @@ void fields(registration::IcpOptions& o, V& v) {
   v("damping", o.damping);
 }
 template <class V>
+void fields(registration::SurfaceFitOptions& o, V& v) {
+  v("quadric", o.quadric);  // k: MultiwayOptions::normal_k
+  v("adaptive_factor", o.adaptive_factor);
+  v("k_min", o.k_min);
+  v("k_max", o.k_max);
+  v("probe_k", o.probe_k);
+}
+template <class V>
 void fields(registration::MultiwayOptions& o, V& v) {
   v("robot_translation_sigma", o.robot_translation_sigma);
   v("robot_rotation_sigma_deg", o.robot_rotation_sigma_deg);
@@ -144,6 +152,7 @@ void fields(registration::MultiwayOptions& o, V& v) {
   v("sample_points", o.sample_points);
   v("target_points", o.target_points);
   v("normal_k", o.normal_k);
+  v("surface", o.surface);
   v("max_incidence_deg", o.max_incidence_deg);
   v("incidence_gain", o.incidence_gain);
   v("rounds", o.rounds);
