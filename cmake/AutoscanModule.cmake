@@ -10,11 +10,18 @@ function(autoscan_module name)
   target_include_directories(autoscan_${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
                                                      $<INSTALL_INTERFACE:include>)
   target_compile_features(autoscan_${name} PUBLIC cxx_std_20)
-  set_target_properties(autoscan_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  # EXPORT_NAME: the installed package names it autoscan::<name> too (autoscanConfig.cmake).
+  set_target_properties(autoscan_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON EXPORT_NAME ${name})
   foreach(d IN LISTS ARG_DEPS)
     target_link_libraries(autoscan_${name} PUBLIC autoscan::${d})
   endforeach()
-  target_link_libraries(autoscan_${name} PUBLIC ${ARG_LIBS} PRIVATE ${ARG_PRIVATE_LIBS} autoscan_warnings)
+  target_link_libraries(autoscan_${name} PUBLIC ${ARG_LIBS} PRIVATE ${ARG_PRIVATE_LIBS}
+                                                               $<BUILD_INTERFACE:autoscan_warnings>)
+  if(AUTOSCAN_INSTALL)
+    install(TARGETS autoscan_${name} EXPORT autoscanTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/autoscan/${name}
+            FILES_MATCHING PATTERN "*.hpp")
+  endif()
 endfunction()
 
 # autoscan_test(<module> [LIBS ...]): tests/<module>/*.cpp into test_<module>, registered with CTest.

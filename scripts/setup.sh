@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One-command set-up for a fresh Debian 12 machine: installs every Debian package the build and the
 # tests need (idempotent; as root or through sudo), fetches the benchmark meshes, installs the
-# report's front-end packages from npm, then configures and builds a Release build in build/.
+# report's front-end packages from npm, then configures and builds a Release build in build/ and
+# installs the Python module (`python3 -c "import autoscan"`, docs/python.md).
 #
 #   scripts/setup.sh            install + build (then: build/autoscan demo)
 #   scripts/setup.sh --test     install + build + run the whole test suite (what CI runs)
@@ -32,6 +33,7 @@ PACKAGES=(
   libeigen3-dev libtbb-dev libembree-dev libnanoflann-dev libcgal-dev libgmp-dev libmpfr-dev
   libceres-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  python3-dev pybind11-dev python3-numpy python3-pytest
   chromium
 )
 # The report's front end is bundled with npm and tested in headless Chromium (Playwright).
@@ -66,6 +68,14 @@ else
   cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DAUTOSCAN_WITH_OPEN3D=$([ "$WITH_OPEN3D" = 1 ] && echo ON || echo OFF)
 fi
 cmake --build "$BUILD" -j "$JOBS"
+
+# The Python module (built unless the build has it off, e.g. the sanitizer build) goes into the
+# interpreter's site directory for local packages (Debian 12: /usr/local/lib/python3.11/dist-packages).
+if [ -d "$BUILD/python/autoscan" ]; then
+  $SUDO cmake --install "$BUILD" --component python
+  PY=$(sed -n 's/^Python3_EXECUTABLE:[A-Z]*=//p' "$BUILD/CMakeCache.txt")
+  (cd /tmp && "${PY:-python3}" -c "import autoscan; print('setup: Python module autoscan', autoscan.__version__)")
+fi
 
 if [ "$RUN_TESTS" = 1 ]; then
   if [ "$SANITIZE" = 1 ]; then

@@ -22,18 +22,24 @@ struct ConvertCli {
 AUTOSCAN_CLI_COMMAND(convert, 91, [](CLI::App& root, autoscan::cli::Globals& g) {
   auto opts = std::make_shared<ConvertCli>();
   auto* sub = root.add_subcommand("convert", "Convert a mesh or point cloud between PLY, OBJ, OFF and STL");
-  sub->add_option("--in", opts->in, "Input mesh or point cloud (.ply, .obj, .off, .stl)")->required();
-  sub->add_option("--out", opts->out, "Output file; the format follows the extension (point clouds: .ply)")->required();
+  sub->add_option("--in", opts->in, "Input mesh or point cloud (.ply, .obj, .off, .stl, .pcd, .xyz, .pts)")->required();
+  sub->add_option("--out", opts->out,
+                  "Output file; the format follows the extension (point clouds: .ply, .pcd, .xyz, .pts; a mesh "
+                  "written as .pcd/.xyz/.pts keeps its vertices)")
+      ->required();
   sub->add_flag("--normalize", opts->normalize,
                 "Scale and centre to the benchmark frame: bounding-box diagonal 1, centred at the origin");
-  sub->add_flag("--ascii", opts->ascii, "Text PLY/STL instead of binary");
+  sub->add_flag("--ascii", opts->ascii, "Text PLY/STL/PCD instead of binary");
   sub->add_flag("--big-endian", opts->big_endian, "Binary PLY in big-endian byte order");
-  sub->add_flag("--double", opts->double_precision, "PLY: coordinates and scalars as double instead of float");
+  sub->add_flag("--double", opts->double_precision, "PLY/PCD: coordinates and scalars as double instead of float");
   g.on_run(sub, [opts, &g] {
     using namespace autoscan;
     cli::require_input_file(opts->in, "--in");
     cli::require_output_parent(opts->out, "--out");
-    (void)io::format_from_extension(opts->out);  // an unknown output format is a usage error, before reading
+    // An unknown output format is a usage error, before reading.
+    const io::FileFormat out_format = io::format_from_extension(opts->out);
+    const bool cloud_format =
+        out_format == io::FileFormat::pcd || out_format == io::FileFormat::xyz || out_format == io::FileFormat::pts;
     io::GeometryFile geo = io::read_geometry(opts->in);
     io::WriteOptions wo;
     wo.ascii = opts->ascii;
@@ -41,7 +47,7 @@ AUTOSCAN_CLI_COMMAND(convert, 91, [](CLI::App& root, autoscan::cli::Globals& g) 
     wo.double_coordinates = wo.double_scalars = opts->double_precision;
     nlohmann::json j = {{"in", opts->in}, {"out", opts->out}, {"format_in", geo.format}};
     io::Similarity sim;
-    if (geo.faces.empty()) {
+    if (geo.faces.empty() || cloud_format) {
       PointCloud& cloud = geo.vertices;
       if (opts->normalize) sim = io::normalize_to_unit_diagonal(cloud);
       io::write_point_cloud(opts->out, cloud, wo);

@@ -70,12 +70,12 @@ TEST(CliIo, MissingAndDirectoryInputsAndBadOutputs) {
   r = run_cli("info " + q(dir));
   EXPECT_EQ(r.code, 2);
   autoscan::io::write_mesh(dir / "t.off", tetrahedron());
-  r = run_cli("convert --in " + q(dir / "t.off") + " --out " + q(dir / "t.xyz"));
+  r = run_cli("convert --in " + q(dir / "t.off") + " --out " + q(dir / "t.abc"));
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("t.xyz"), std::string::npos);
+  EXPECT_NE(r.err.find("t.abc"), std::string::npos);
   r = run_cli("convert --in " + q(dir / "t.off") + " --out " + q(dir / "nodir" / "t.ply"));
   EXPECT_EQ(r.code, 2);
-  EXPECT_FALSE(fs::exists(dir / "t.xyz"));
+  EXPECT_FALSE(fs::exists(dir / "t.abc"));
   r = run_cli("convert --in " + q(dir / "t.off"));
   EXPECT_EQ(r.code, 2);  // --out is required
   fs::remove_all(dir);
@@ -135,6 +135,23 @@ TEST(CliIo, ConvertBetweenFormatsWithNormalize) {
   auto r = run_cli("convert --in " + q(dir / "t.off") + " --out " + q(dir / "e.ply") + " --ascii");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(autoscan::io::read_geometry(dir / "e.ply").format, "ply ascii");
+  fs::remove_all(dir);
+}
+
+TEST(CliIo, ConvertAMeshToPointCloudFormatsKeepsItsVertices) {
+  const auto dir = fresh_dir("cli_convert_cloud");
+  autoscan::io::write_mesh(dir / "t.off", tetrahedron());
+  for (const char* out : {"a.pcd", "b.xyz", "c.pts"}) {
+    SCOPED_TRACE(out);
+    auto r = run_cli("convert --in " + q(dir / "t.off") + " --out " + q(dir / out) + " --json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["kind"], "point_cloud");
+    EXPECT_EQ(autoscan::io::read_point_cloud(dir / out).positions, tetrahedron().vertices);
+  }
+  // ... and back to PLY from PCD.
+  auto r = run_cli("convert --in " + q(dir / "a.pcd") + " --out " + q(dir / "d.ply") + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["format_in"], "pcd binary");
   fs::remove_all(dir);
 }
 

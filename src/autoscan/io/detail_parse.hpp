@@ -195,6 +195,9 @@ GeometryFile read_ply(const std::string& path, const std::string& bytes);
 GeometryFile read_obj(const std::string& path, const std::string& bytes);
 GeometryFile read_off(const std::string& path, const std::string& bytes);
 GeometryFile read_stl(const std::string& path, const std::string& bytes);
+GeometryFile read_pcd(const std::string& path, const std::string& bytes);
+/// .xyz (pts = false) or .pts (pts = true).
+GeometryFile read_xyz(const std::string& path, const std::string& bytes, bool pts);
 
 // Format writers (to a stream inside write_file_atomic).
 /// The per-vertex data a PLY file holds (views into a mesh or a point cloud).
@@ -208,6 +211,8 @@ void write_ply(std::ostream& os, const PlyVertexData& v, const std::vector<Tri>&
 void write_obj(std::ostream& os, const TriangleMesh& mesh);
 void write_off(std::ostream& os, const TriangleMesh& mesh);
 void write_stl(std::ostream& os, const TriangleMesh& mesh, bool ascii);
+void write_pcd(std::ostream& os, const PointCloud& cloud, const WriteOptions& o);
+void write_xyz(std::ostream& os, const PointCloud& cloud, bool pts);
 
 /// Buffers output and hands it to the stream in large blocks.
 class OutBuffer {

@@ -48,7 +48,10 @@ FileFormat format_from_extension(const fs::path& path) {
   if (ext == ".obj") return FileFormat::obj;
   if (ext == ".off") return FileFormat::off;
   if (ext == ".stl") return FileFormat::stl;
-  detail::fail(path.string(), "unknown file format '{}' (expected .ply, .obj, .off or .stl)",
+  if (ext == ".pcd") return FileFormat::pcd;
+  if (ext == ".xyz") return FileFormat::xyz;
+  if (ext == ".pts") return FileFormat::pts;
+  detail::fail(path.string(), "unknown file format '{}' (expected .ply, .obj, .off, .stl, .pcd, .xyz or .pts)",
                ext.empty() ? std::string("no extension") : ext);
 }
 
@@ -68,6 +71,13 @@ GeometryFile read_geometry_unchecked(const std::string& p, FileFormat kind, cons
       break;
     case FileFormat::stl:
       g = detail::read_stl(p, bytes);
+      break;
+    case FileFormat::pcd:
+      g = detail::read_pcd(p, bytes);
+      break;
+    case FileFormat::xyz:
+    case FileFormat::pts:
+      g = detail::read_xyz(p, bytes, kind == FileFormat::pts);
       break;
   }
   return g;
@@ -116,16 +126,18 @@ PointCloud read_point_cloud(const fs::path& path) { return std::move(read_geomet
 
 namespace {
 
-void check_scalar_names(const std::string& p, const ScalarAttributes& s) {
+void check_scalar_names(const std::string& p, const ScalarAttributes& s, bool pcd = false) {
   static const char* reserved[] = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue"};
+  static const char* reserved_pcd[] = {"x", "y", "z", "normal_x", "normal_y", "normal_z", "rgb", "rgba", "_"};
+  const char* format = pcd ? "PCD" : "PLY";
   for (const auto& [name, col] : s.columns()) {
     AUTOSCAN_REQUIRE(!name.empty(), "{}: a scalar attribute has an empty name", p);
     for (char c : name)
       AUTOSCAN_REQUIRE(std::isgraph(static_cast<unsigned char>(c)),
-                       "{}: scalar attribute '{}' has a name PLY cannot hold (whitespace or control characters)", p,
-                       name);
-    for (const char* r : reserved)
-      AUTOSCAN_REQUIRE(name != r, "{}: scalar attribute '{}' clashes with a standard PLY vertex property", p, name);
+                       "{}: scalar attribute '{}' has a name {} cannot hold (whitespace or control characters)", p,
+                       name, format);
+    for (const char* r : pcd ? reserved_pcd : reserved)
+      AUTOSCAN_REQUIRE(name != r, "{}: scalar attribute '{}' clashes with a standard {} field", p, name, format);
   }
 }
 
@@ -155,17 +167,28 @@ void write_mesh(const fs::path& path, const TriangleMesh& mesh, const WriteOptio
     case FileFormat::stl:
       write_file_atomic(path, [&](std::ostream& os) { detail::write_stl(os, mesh, options.ascii); });
       break;
+    case FileFormat::pcd:
+    case FileFormat::xyz:
+    case FileFormat::pts:
+      throw InputError(fmt::format("{}: {} is a point cloud format; write a mesh as .ply, .obj, .off or .stl", p,
+                                   path.extension().string()));
   }
 }
 
 void write_point_cloud(const fs::path& path, const PointCloud& cloud, const WriteOptions& options) {
   const std::string p = path.string();
-  AUTOSCAN_REQUIRE(format_from_extension(path) == FileFormat::ply,
-                   "{}: point clouds are written as PLY; use the .ply extension", p);
+  const FileFormat f = format_from_extension(path);
+  AUTOSCAN_REQUIRE(f == FileFormat::ply || f == FileFormat::pcd || f == FileFormat::xyz || f == FileFormat::pts,
+                   "{}: point clouds are written as .ply, .pcd, .xyz or .pts", p);
   cloud.validate(p);
-  check_scalar_names(p, cloud.scalars);
+  if (f == FileFormat::ply || f == FileFormat::pcd) check_scalar_names(p, cloud.scalars, f == FileFormat::pcd);
   write_file_atomic(path, [&](std::ostream& os) {
-    detail::write_ply(os, {cloud.positions, cloud.normals, cloud.colors, cloud.scalars}, {}, options);
+    if (f == FileFormat::pcd)
+      detail::write_pcd(os, cloud, options);
+    else if (f == FileFormat::ply)
+      detail::write_ply(os, {cloud.positions, cloud.normals, cloud.colors, cloud.scalars}, {}, options);
+    else
+      detail::write_xyz(os, cloud, f == FileFormat::pts);
   });
 }
 

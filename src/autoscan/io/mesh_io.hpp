@@ -1,6 +1,7 @@
 #pragma once
 // Reading and writing meshes and point clouds: PLY (ASCII, binary little and big endian), OBJ, OFF
-// and STL (ASCII and binary).
+// and STL (ASCII and binary); point clouds also as PCD (the Point Cloud Library's format, ASCII and
+// binary; pcd.cpp), XYZ and PTS (text; xyz.cpp).
 //
 // Contract for every reader: the format is chosen by the file's extension (case-insensitive) and
 // checked against the file's magic. Any problem — missing path, directory, unreadable or empty file,
@@ -21,9 +22,9 @@
 
 namespace autoscan::io {
 
-enum class FileFormat { ply, obj, off, stl };
+enum class FileFormat { ply, obj, off, stl, pcd, xyz, pts };
 
-/// The format named by `path`'s extension (.ply .obj .off .stl, any case); throws InputError
+/// The format named by `path`'s extension (.ply .obj .off .stl .pcd .xyz .pts, any case); throws InputError
 /// naming the path for any other extension.
 FileFormat format_from_extension(const std::filesystem::path& path);
 
@@ -47,7 +48,10 @@ GeometryFile read_geometry(const std::filesystem::path& path);
 TriangleMesh read_mesh(const std::filesystem::path& path);
 
 /// Reads a point cloud: a PLY's vertex element (x y z, optional nx ny nz, red green blue, any
-/// other scalar property as a named scalar), or the vertices of a mesh file of any format.
+/// other scalar property as a named scalar); a PCD file (x y z, optional normal_x normal_y normal_z,
+/// rgb/rgba, other fields as named scalars; points whose x, y and z are all NaN, PCL's "no
+/// measurement", are dropped); an XYZ file (x y z [nx ny nz]); a PTS file ([count line] x y z
+/// [intensity] [r g b]; intensity as the scalar "intensity"); or the vertices of a mesh file.
 PointCloud read_point_cloud(const std::filesystem::path& path);
 
 /// How files are written.
@@ -60,11 +64,15 @@ struct WriteOptions {
 
 /// Writes a mesh, format by extension: .ply (vertex normals, colours and named scalars kept),
 /// .obj (normals and colours kept), .off (normals and colours: NOFF/COFF/CNOFF), .stl (geometry
-/// only, face normals computed). Throws InputError for an unknown extension or an invalid mesh.
+/// only, face normals computed). Throws InputError for an unknown extension, a point-cloud format
+/// (.pcd .xyz .pts) or an invalid mesh.
 void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh, const WriteOptions& options = {});
 
-/// Writes a point cloud as PLY (.ply only) with normals, colours and every named scalar as a
-/// vertex property (MeshLab and CloudCompare show them).
+/// Writes a point cloud, format by extension: .ply (normals, colours and every named scalar as a
+/// vertex property; MeshLab and CloudCompare show them), .pcd (binary, or ASCII with options.ascii;
+/// normals, colours as packed rgb, scalars as fields; float or double as for PLY), .xyz (x y z
+/// [nx ny nz]) or .pts (count line, x y z [intensity] [r g b]). Text is written with the shortest
+/// decimal that reads back to the same double.
 void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud, const WriteOptions& options = {});
 
 }  // namespace autoscan::io

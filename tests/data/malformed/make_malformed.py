@@ -61,7 +61,7 @@ put("garbage.ply", b"ply\n" + garbage, "binary data")
 put("garbage.obj", garbage, "binary data")
 put("garbage.off", garbage, "binary data")
 put("garbage.stl", garbage, "not a valid STL file")
-put("unknown_extension.xyz", ascii_body(TET_V, []), "unknown file format")
+put("unknown_extension.abc", ascii_body(TET_V, []), "unknown file format")
 put("no_extension", "OFF\n4 4 0\n" + ascii_body(TET_V, TET_F), "unknown file format")
 
 # --- PLY header problems
