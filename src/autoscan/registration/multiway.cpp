@@ -52,23 +52,23 @@ struct Prepared {
   Vec3 sensor = Vec3::Zero();
 };
 
-Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, const MultiwayOptions& o) {
-  Prepared p;
-  p.sensor = sensor - c;
+// The part of a scan's preparation that depends only on the scan (cached by callers across calls).
+PreparedScan fit_scan(const PointCloud& scan, const Vec3& sensor, const MultiwayOptions& o) {
+  PreparedScan p;
   PointCloud all;
-  all.positions = stride_sample(scan.positions, o.target_points, c);
-  // Normals from a local plane fit, and the target points projected onto their plane: on a noisy
+  all.positions = stride_sample(scan.positions, o.target_points, Vec3::Zero());
+  // Normals from a local surface fit, and the target points projected onto their surface: on a noisy
   // scan the raw points' scatter would otherwise enter every point-to-plane residual twice. The
   // fitted normals are used even when the scan brings its own: a range image's normals come from
   // neighbouring pixels and carry the full depth noise (measured, docs/registration.md).
   SurfaceFitOptions fo = o.surface;
   fo.k = o.normal_k;
-  SurfaceFit fit = fit_scan_surface(all.positions, p.sensor, fo);
+  SurfaceFit fit = fit_scan_surface(all.positions, sensor, fo);
   p.neighbors = fit.neighbors;
   p.noise = fit.noise;
   all.normals = std::move(fit.normals);
   std::vector<Vec3> projected = std::move(fit.projected);
-  // Outliers (far from their neighbours' plane) stay out: beyond 4 times the median distance.
+  // Outliers (far from their neighbours' surface) stay out: beyond 4 times the median distance.
   std::vector<double> off(all.size());
   for (std::size_t i = 0; i < all.size(); ++i) off[i] = (all.positions[i] - projected[i]).norm();
   std::vector<double> sorted = off;
@@ -79,17 +79,29 @@ Prepared prepare(const PointCloud& scan, const Vec3& sensor, const Vec3& c, cons
   // angle, and silhouettes curl): they stay out of the registration.
   const double min_cos = std::cos(o.max_incidence_deg * kDegToRad);
   for (std::size_t i = 0; i < all.size(); ++i) {
-    const Vec3 ray = p.sensor - all.positions[i];
+    const Vec3 ray = sensor - all.positions[i];
     const double len = ray.norm();
     const double cosi = len > 0.0 ? std::abs(all.normals[i].dot(ray)) / len : 1.0;
     if (cosi < min_cos || (off_limit > 0.0 && off[i] > off_limit)) continue;
-    p.target.positions.push_back(all.positions[i]);
-    p.target.normals.push_back(all.normals[i]);
+    p.positions.push_back(all.positions[i]);
+    p.normals.push_back(all.normals[i]);
     // Depth precision 1/σ², σ ∝ 1 + gain·tan(incidence) (the scanner noise model's incidence term).
     const double tan_i = std::sqrt(std::max(0.0, 1.0 - cosi * cosi)) / std::max(cosi, 1e-6);
     const double sigma = 1.0 + o.incidence_gain * tan_i;
-    p.weight.push_back(1.0 / (sigma * sigma));
+    p.weights.push_back(1.0 / (sigma * sigma));
   }
+  return p;
+}
+
+Prepared prepare(const PreparedScan& f, const Vec3& sensor, const Vec3& c, const MultiwayOptions& o) {
+  Prepared p;
+  p.sensor = sensor - c;
+  p.neighbors = f.neighbors;
+  p.noise = f.noise;
+  p.target.positions.reserve(f.positions.size());
+  for (const auto& q : f.positions) p.target.positions.push_back(q - c);
+  p.target.normals = f.normals;
+  p.weight = f.weights;
   const std::size_t stride = stride_for(p.target.size(), o.sample_points);
   for (std::size_t i = 0; i < p.target.size(); i += stride) {
     p.sample.push_back(p.target.positions[i]);
@@ -399,10 +411,13 @@ std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sen
 
 MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
                                  std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
-                                 const MultiwayOptions& o, ProgressCallback progress) {
+                                 const MultiwayOptions& o, ProgressCallback progress,
+                                 std::vector<std::shared_ptr<const PreparedScan>>* cache) {
   Stopwatch clock;
   o.validate();
   const std::size_t n = scans.size();
+  AUTOSCAN_REQUIRE(!cache || cache->size() == n, "multiway: {} cached preparations for {} scans",
+                   cache ? cache->size() : 0, n);
   AUTOSCAN_REQUIRE(sensors.size() == n, "multiway: {} sensor positions for {} scans", sensors.size(), n);
   AUTOSCAN_REQUIRE(initial.empty() || initial.size() == n, "multiway: {} initial corrections for {} scans",
                    initial.size(), n);
@@ -466,7 +481,10 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
   std::vector<Prepared> prep(n);
   tbb::parallel_for(std::size_t{0}, cand.size(), [&](std::size_t k) {
     const std::size_t i = cand[k];
-    prep[i] = prepare(scans[i], sensors[i], c, o);
+    std::shared_ptr<const PreparedScan> f = cache ? (*cache)[i] : nullptr;
+    if (!f) f = std::make_shared<const PreparedScan>(fit_scan(scans[i], sensors[i], o));
+    if (cache) (*cache)[i] = f;
+    prep[i] = prepare(*f, sensors[i], c, o);
   });
   std::vector<Eigen::Isometry3d> X(n);
   for (std::size_t i = 0; i < n; ++i) X[i] = to_centred(res.corrections[i], c);

@@ -17,6 +17,7 @@
 // agrees with none of them, is flagged: a session keeps it out of the model rather than blurring it.
 // Deterministic: every reduction is in index order; the pose graph is solved single-threaded.
 #include <Eigen/Geometry>
+#include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <span>
 #include <string>
@@ -153,9 +154,25 @@ struct MultiwayResult {
 /// @param initial     #N starting corrections (empty: identity)
 /// @param free        #N flags; empty: all free
 /// Throws InputError for size mismatches or invalid options.
+/// A scan as the registration sees it, in the frame of its reported pose: its stride sample moved
+/// onto the local surface fits, their normals and quality weights, grazing and off-surface points
+/// left out. It depends only on the scan, its sensor and the options, so a caller that registers
+/// the same scans again (a session, each iteration) keeps it (`cache` below).
+struct PreparedScan {
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;
+  std::vector<double> weights;  ///< depth precision, 1/σ² relative (incidence term)
+  int neighbors = 0;            ///< k of the surface fit
+  double noise = 0.0;           ///< the scan's estimated scatter
+};
+
+/// @param cache  optional, #N entries: a null entry is filled with the scan's preparation, a non-null
+///               one is used as is (the caller clears an entry when its scan changes; the options
+///               must be the same as when it was filled)
 MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
                                  std::span<const Eigen::Isometry3d> initial, std::span<const char> free,
-                                 const MultiwayOptions& options = {}, ProgressCallback progress = {});
+                                 const MultiwayOptions& options = {}, ProgressCallback progress = {},
+                                 std::vector<std::shared_ptr<const PreparedScan>>* cache = nullptr);
 
 nlohmann::json to_json(const MultiwayResult& r);
 

@@ -395,6 +395,9 @@ struct Session::Impl {
   // Per scan: a stride sample (positions, normals when the scan has them) at its reported pose, for
   // the global registration; empty for an excluded scan (it takes no further part).
   std::vector<PointCloud> reg_samples;
+  // Each scan's preparation for the global registration (surface fits), kept across iterations: it
+  // depends only on the scan (docs/registration.md). Rebuilt lazily after open(): same inputs, same bits.
+  std::vector<std::shared_ptr<const registration::PreparedScan>> reg_prepared;
   std::size_t model_size_at_last_iteration = 0;
   std::optional<Pose> current_pose;
   int views_planned = 0;
@@ -568,7 +571,9 @@ struct Session::Impl {
       initial[static_cast<std::size_t>(i)] = r.correction;
       free[static_cast<std::size_t>(i)] = i >= first && !r.excluded ? 1 : 0;
     }
-    const auto res = registration::register_multiway(reg_samples, sensors, initial, free, options.multiway, progress);
+    reg_prepared.resize(reg_samples.size());
+    const auto res =
+        registration::register_multiway(reg_samples, sensors, initial, free, options.multiway, progress, &reg_prepared);
     int moved = 0, excluded = 0;
     std::vector<char> moved_flags(scans.size(), 0);
     for (int i = 0; i < n; ++i) {
@@ -586,6 +591,7 @@ struct Session::Impl {
         r.excluded = true;
         r.excluded_reason = rep.flag_reason;
         reg_samples[static_cast<std::size_t>(i)] = PointCloud{};
+        reg_prepared[static_cast<std::size_t>(i)] = nullptr;
         remove_from_model(i);
         ++excluded;
         log::warn("scan {}: kept out of the model ({})", i, rep.flag_reason);
