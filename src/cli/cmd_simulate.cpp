@@ -84,6 +84,67 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   return base;
 }
 
+// --resume continues a run with the options it recorded: an option given with it that would change
+// the run (seed, mesh, noise, planner, depth, budgets...) is refused, never silently ignored.
+void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const std::string& out) {
+  auto refuse = [&](const std::string& option, const std::string& given, const std::string& recorded) {
+    throw autoscan::InputError(fmt::format(
+        "{} {}: the simulation in {} was run with {} {}; --resume continues it with its recorded options (leave "
+        "{} out, or start a new run in another --out)",
+        option, given, out, option, recorded, option));
+  };
+  if (!o.planner.empty() && o.planner != rec.session.planner) refuse("--planner", o.planner, rec.session.planner);
+  if (o.seed && *o.seed != rec.session.seed)
+    refuse("--seed", std::to_string(*o.seed), std::to_string(rec.session.seed));
+  if (o.noise && *o.noise != rec.scanner.noise.magnitude)
+    refuse("--noise", fmt::format("{}", *o.noise), fmt::format("{}", rec.scanner.noise.magnitude));
+  if (o.depth && *o.depth != rec.session.poisson.depth)
+    refuse("--depth", std::to_string(*o.depth), std::to_string(rec.session.poisson.depth));
+  if (o.max_views && *o.max_views != rec.session.max_views)
+    refuse("--max-views", std::to_string(*o.max_views), std::to_string(rec.session.max_views));
+  if (o.max_iterations && *o.max_iterations != rec.session.max_iterations)
+    refuse("--max-iterations", std::to_string(*o.max_iterations), std::to_string(rec.session.max_iterations));
+  if (!o.rig.empty() && autoscan::Rig::parse_kind(o.rig) != rec.rig.kind)
+    refuse("--rig", o.rig, autoscan::Rig::kind_name(rec.rig.kind));
+  auto joined = [](const std::vector<int>& v) {
+    std::string t;
+    for (int c : v) t += (t.empty() ? "" : ",") + std::to_string(c);
+    return t.empty() ? std::string("(none)") : t;
+  };
+  if (!o.checkpoints.empty()) {
+    SimCli only;
+    only.checkpoints = o.checkpoints;
+    const auto given = build_options(only, rec).checkpoints;
+    if (given != rec.checkpoints) refuse("--checkpoints", o.checkpoints, joined(rec.checkpoints));
+  }
+  if (o.no_report && rec.report)
+    throw autoscan::InputError(fmt::format(
+        "--no-report: the simulation in {} was run with a report; --resume continues it with its recorded options",
+        out));
+  if (o.no_eval && rec.evaluate)
+    throw autoscan::InputError(fmt::format(
+        "--no-eval: the simulation in {} was run with ground-truth figures; --resume continues it with its recorded "
+        "options",
+        out));
+  if (!o.config.empty()) {
+    autoscan::cli::require_input_file(o.config, "--config");
+    const auto applied =
+        autoscan::simulation::simulate_options_from_json(autoscan::read_json_file(o.config), rec, o.config);
+    const auto before = autoscan::simulation::to_json(rec);
+    const auto diff = nlohmann::json::diff(before, autoscan::simulation::to_json(applied));
+    if (!diff.empty()) {
+      const std::string path = diff[0].value("path", "");
+      const nlohmann::json::json_pointer ptr(path);
+      const std::string old_value = before.contains(ptr) ? before.at(ptr).dump() : "(not set)";
+      const std::string new_value = diff[0].contains("value") ? diff[0]["value"].dump() : "(removed)";
+      throw autoscan::InputError(fmt::format(
+          "--config {}: sets {} to {}, but the simulation in {} was run with {}; --resume continues it with its "
+          "recorded options (leave --config out, or start a new run in another --out)",
+          o.config, path, new_value, out, old_value));
+    }
+  }
+}
+
 nlohmann::json summary(const autoscan::simulation::SimulateResult& r) {
   auto j = r.to_json();
   if (fs::exists(r.directory / "report.html")) j["report"] = (r.directory / "report.html").string();
@@ -126,12 +187,22 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
   g.on_run(sub, [o, &g] {
     autoscan::simulation::SimulateResult r;
     if (o->resume) {
+      const auto recorded = autoscan::simulation::recorded_simulation(o->out);
+      refuse_changed_options(*o, recorded.options, o->out);
+      if (!o->mesh.empty()) {
+        autoscan::cli::require_input_file(o->mesh, "--mesh");
+        const auto mesh = autoscan::io::read_mesh(o->mesh);
+        AUTOSCAN_REQUIRE(autoscan::simulation::is_recorded_truth(o->out, mesh),
+                         "--mesh {}: not the mesh the simulation in {} was run with ({}); --resume continues it with "
+                         "its recorded mesh (leave --mesh out, or start a new run in another --out)",
+                         o->mesh, o->out, recorded.source.empty() ? std::string("its truth.ply") : recorded.source);
+      }
       r = autoscan::simulation::resume(o->out, g.progress());
     } else {
       autoscan::cli::require_input_file(o->mesh, "--mesh");
       const auto options = build_options(*o, {});
       const auto mesh = autoscan::io::read_mesh(o->mesh);
-      r = autoscan::simulation::simulate(mesh, o->out, options, g.progress());
+      r = autoscan::simulation::simulate(mesh, o->out, options, g.progress(), o->mesh);
     }
     g.emit(summary(r));
     if (!g.json) print_human(r);

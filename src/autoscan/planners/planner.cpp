@@ -39,6 +39,21 @@ class PoissonPlanner final : public Planner {
   }
   std::string name() const override { return "poisson"; }
 
+  // The phantom grid's frame: chosen at the first plan() from the points of that time, so a resumed
+  // session must get it back rather than choose it again from a larger model.
+  nlohmann::json saved_state() const override {
+    if (grid_.empty()) return nullptr;
+    return {{"phantom_grid", grid_.geometry_json()}};
+  }
+  void restore_state(const nlohmann::json& state, const std::string& what) override {
+    if (state.is_null()) return;
+    AUTOSCAN_REQUIRE(phantom_ && state.is_object() && state.size() == 1 && state.contains("phantom_grid"),
+                     "{}: expected null or {{\"phantom_grid\": ...}} for planner 'poisson'{}", what,
+                     phantom_ ? "" : " (phantom suppression is off)");
+    grid_ = OccupancyGrid::from_geometry_json(state.at("phantom_grid"), what + ".phantom_grid", grid_resolution_);
+    carve();
+  }
+
   void observe_scan(const PointCloud& scan, const Pose& pose) override {
     if (!phantom_) return;
     rays_.add(scan, pose, static_cast<std::size_t>(max_rays_));
@@ -141,6 +156,11 @@ std::vector<std::string> planner_names() {
   std::vector<std::string> names;
   for (const auto& [n, unused] : r.factories) names.push_back(n);
   return names;
+}
+
+void Planner::restore_state(const nlohmann::json& state, const std::string& what) {
+  AUTOSCAN_REQUIRE(state.is_null(), "{}: planner '{}' keeps no state (expected null, got {})", what, name(),
+                   state.dump().substr(0, 80));
 }
 
 void register_planner(const std::string& name, PlannerFactory factory) {

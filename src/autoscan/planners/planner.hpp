@@ -10,6 +10,11 @@
 //      every stored scan after Session::open, so state built only from observe_scan survives a
 //      restart without being saved;
 //   3. plan(state, current, rng) once per iteration, after consolidation, Poisson and confidence.
+// State that the replay of step 2 cannot rebuild (what plan() chose from the model of its time, such
+// as the box of an occupancy grid) is handed out by saved_state() and stored by the session in
+// session.json with every iteration; after Session::open it comes back through restore_state(),
+// before the replay, so that a resumed session plans exactly as an uninterrupted one
+// (docs/reliability.md, "Crash safety and exact resume").
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -86,6 +91,13 @@ class Planner {
     (void)scan;
     (void)pose;
   }
+  /// What plan() fixed that observe_scan's replay cannot rebuild (JSON; null when nothing, the
+  /// default). The session stores it after every iteration.
+  virtual nlohmann::json saved_state() const { return nullptr; }
+  /// Takes back what saved_state() returned, on a fresh planner before the replay of the scans.
+  /// Throws InputError naming `what` for a state this planner does not understand. Default: accepts
+  /// only null.
+  virtual void restore_state(const nlohmann::json& state, const std::string& what);
   /// Plans the next views from `current`. Views the rig cannot reach must not be returned.
   /// `rng` is the session's stream for this iteration (deterministic for a seed).
   virtual PlanOutput plan(const ModelState& state, const Pose& current, Rng& rng) = 0;

@@ -34,6 +34,30 @@ OccupancyGrid::OccupancyGrid(const Vec3& origin, double cell, int n)
   AUTOSCAN_REQUIRE(cell > 0 && n > 0, "occupancy grid: cell size and resolution must be positive");
 }
 
+nlohmann::json OccupancyGrid::geometry_json() const {
+  if (empty()) return nullptr;
+  return {{"origin", {origin_.x(), origin_.y(), origin_.z()}}, {"cell", cell_}, {"resolution", n_}};
+}
+
+OccupancyGrid OccupancyGrid::from_geometry_json(const nlohmann::json& j, const std::string& what, int resolution) {
+  AUTOSCAN_REQUIRE(
+      j.is_object() && j.size() == 3 && j.contains("origin") && j.contains("cell") && j.contains("resolution"),
+      "{}: expected {{\"origin\": [x, y, z], \"cell\": c, \"resolution\": n}} (got {})", what, j.dump().substr(0, 80));
+  const auto& o = j.at("origin");
+  AUTOSCAN_REQUIRE(o.is_array() && o.size() == 3 && o[0].is_number() && o[1].is_number() && o[2].is_number(),
+                   "{}.origin: expected three numbers", what);
+  const Vec3 origin(o[0].get<double>(), o[1].get<double>(), o[2].get<double>());
+  AUTOSCAN_REQUIRE(within_coordinate_range(origin), "{}.origin: not finite or beyond {:g}", what, kMaxCoordinate);
+  const auto& c = j.at("cell");
+  AUTOSCAN_REQUIRE(
+      c.is_number() && std::isfinite(c.get<double>()) && c.get<double>() > 0.0 && c.get<double>() <= kMaxCoordinate,
+      "{}.cell: expected a positive number (got {})", what, c.dump());
+  const auto& n = j.at("resolution");
+  AUTOSCAN_REQUIRE(n.is_number_integer() && n.get<long long>() == resolution,
+                   "{}.resolution: {} differs from the planner's grid resolution {}", what, n.dump(), resolution);
+  return OccupancyGrid(origin, c.get<double>(), resolution);
+}
+
 long long OccupancyGrid::index_of(const Vec3& p) const {
   const Vec3 l = (p - origin_) / cell_;
   long long i[3];
@@ -146,6 +170,19 @@ void RayBuffer::integrate_into(OccupancyGrid& grid, double stop_short) {
   for (std::size_t i = 0; i < points_.size(); ++i) grid.integrate(sensors_[i], points_[i], stop_short);
   points_.clear();
   sensors_.clear();
+}
+
+nlohmann::json SpherePlanner::saved_state() const {
+  if (grid_.empty()) return nullptr;
+  return {{"grid", grid_.geometry_json()}};
+}
+
+void SpherePlanner::restore_state(const nlohmann::json& state, const std::string& what) {
+  if (state.is_null()) return;
+  AUTOSCAN_REQUIRE(state.is_object() && state.size() == 1 && state.contains("grid"),
+                   "{}: expected null or {{\"grid\": ...}} for planner 'sphere'", what);
+  grid_ = OccupancyGrid::from_geometry_json(state.at("grid"), what + ".grid", options_.grid_resolution);
+  rays_.integrate_into(grid_);
 }
 
 void SpherePlanner::observe_scan(const PointCloud& scan, const Pose& pose) {

@@ -57,6 +57,12 @@ class OccupancyGrid {
   void unknown_along(const Vec3& origin, const Vec3& dir, double t_near, double t_far,
                      std::vector<std::uint32_t>& out) const;
   std::size_t count(State s) const;
+  /// The grid's frame {"origin": [x, y, z], "cell": c, "resolution": n} (not its voxels, which the
+  /// scans rebuild: the final state of a voxel does not depend on the order of the rays).
+  nlohmann::json geometry_json() const;
+  /// An empty (all unknown) grid in the frame `j` (geometry_json); InputError naming `what` when it
+  /// is not one, or when its resolution is not `resolution` (the planner's setting).
+  static OccupancyGrid from_geometry_json(const nlohmann::json& j, const std::string& what, int resolution);
 
  private:
   template <class Visit>
@@ -88,6 +94,9 @@ class SpherePlanner final : public Planner {
   explicit SpherePlanner(const PlannerOptions& options);
   std::string name() const override { return "sphere"; }
   void observe_scan(const PointCloud& scan, const Pose& pose) override;
+  /// The grid's frame, chosen at the first plan() from the points of its time.
+  nlohmann::json saved_state() const override;
+  void restore_state(const nlohmann::json& state, const std::string& what) override;
   PlanOutput plan(const ModelState& state, const Pose& current, Rng& rng) override;
   const OccupancyGrid& grid() const { return grid_; }
 

@@ -219,6 +219,7 @@ json to_json(const ScanRecord& r) {
             {"pose", to_json(r.reported_pose)},
             {"registered_pose", to_json(r.registered_pose)},
             {"correction", matrix_json(r.correction)},
+            {"added_correction", matrix_json(r.added_correction)},
             {"registration", r.registration ? registration::to_json(*r.registration) : json(nullptr)},
             {"registration_accepted", !r.correction.isApprox(Eigen::Isometry3d::Identity(), 0.0)},
             {"global_registration", r.global_registration},
@@ -292,6 +293,11 @@ ScanRecord scan_from_json(const json& j, const std::string& what, int expected_i
   r.registered_pose = pose_from_json(member(j, "registered_pose", what), what + ".registered_pose");
   r.correction = matrix_from_json(member(j, "correction", what), what + ".correction");
   require_rigid(r.correction, what + ".correction");
+  r.added_correction = r.correction;  // a session written before the field: no global registration moved it
+  if (j.contains("added_correction")) {
+    r.added_correction = matrix_from_json(j.at("added_correction"), what + ".added_correction");
+    require_rigid(r.added_correction, what + ".added_correction");
+  }
   if (j.contains("global_registration"))
     r.global_registration = object_or_null(j.at("global_registration"), what + ".global_registration");
   if (j.contains("registration_accepted")) boolean(j.at("registration_accepted"), what + ".registration_accepted");
@@ -450,6 +456,7 @@ struct Session::Impl {
             {"seed", options.seed},
             {"planner", options.planner},
             {"params", to_json(options)},
+            {"planner_state", planner ? planner->saved_state() : json(nullptr)},
             {"current_pose", pose_or_null(current_pose)},
             {"views_planned", views_planned},
             {"model_points", model.size()},
@@ -762,6 +769,9 @@ Session Session::open(const fs::path& dir) {
     throw InputError(fmt::format("{}: {}", where, e.what()));
   }
   impl->make_planner_object();
+  // What the planner fixed at an earlier plan() (an occupancy grid's frame), before the replay below.
+  if (j.contains("planner_state") && impl->planner)
+    impl->planner->restore_state(j.at("planner_state"), where + ": planner_state");
 
   // 2. Scan files session.json does not name. A crash during add_scan leaves at most the files of the
   //    next id (written, never acknowledged): those are set aside below. Anything beyond means that
@@ -805,7 +815,16 @@ Session Session::open(const fs::path& dir) {
                      "{}: insertion flags disagree with session.json", file.string());
     PointCloud registered = scan;
     apply_transform(registered, rec.correction);
-    if (impl->planner) impl->planner->observe_scan(registered, rec.registered_pose);
+    if (impl->planner) {
+      // As add_scan showed it to the planner: with the correction of that time.
+      if (rec.added_correction.isApprox(rec.correction, 0.0)) {
+        impl->planner->observe_scan(registered, rec.registered_pose);
+      } else {
+        PointCloud observed = scan;
+        apply_transform(observed, rec.added_correction);
+        impl->planner->observe_scan(observed, rec.reported_pose.transformed(rec.added_correction));
+      }
+    }
     if (!rec.excluded) impl->append_to_model(scan, registered, keep);
     impl->reg_samples.push_back(rec.excluded ? PointCloud{} : impl->registration_sample(scan));
     impl->scans.push_back(std::move(rec));
@@ -870,6 +889,7 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
   }
   std::vector<char> keep;
   PointCloud registered = m.register_and_select(scan, rec, keep);
+  rec.added_correction = rec.correction;
 
   // Persist: the scan file (as received, with the insertion flags), its sidecar, then session.json.
   // Until session.json names it the scan is not acknowledged; open() sets such files aside. A write
@@ -1007,7 +1027,13 @@ NextViews Session::next_views(const Pose& current) {
     io::write_point_cloud(idir / "cloud.ply", cloud);
   }
   io::write_point_cloud(idir / "consolidated.ply", rec->consolidated, exact_ply());
-  if (!rec->mesh.empty()) io::write_mesh(idir / "mesh.ply", rec->mesh);
+  if (!rec->mesh.empty()) {
+    // Double coordinates: a driver that evaluates the mesh after a restart (the simulator's truth
+    // figures) reads back exactly the mesh of this iteration.
+    io::WriteOptions exact;
+    exact.double_coordinates = true;
+    io::write_mesh(idir / "mesh.ply", rec->mesh, exact);
+  }
   io::write_point_cloud(idir / "iso.ply", rec->iso_points, exact_ply());
   json extra = {{"iteration", k},
                 {"planner", m.options.planner},

@@ -51,7 +51,10 @@ struct ScanRecord {
   Pose reported_pose;        ///< as the robot reported it
   Pose registered_pose;      ///< after the registration correction
   Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();  ///< applied to the scan (world frame)
-  std::optional<registration::IcpResult> registration;           ///< when ICP ran (to the model, at add_scan)
+  /// The correction when the scan was added (before any later global registration moved it): the
+  /// scan as the planner observed it, replayed so after open().
+  Eigen::Isometry3d added_correction = Eigen::Isometry3d::Identity();
+  std::optional<registration::IcpResult> registration;  ///< when ICP ran (to the model, at add_scan)
   /// The global registration's report on this scan (multiway.hpp's per-scan figures and the
   /// correction before it), from the last iteration that moved it; null when none did.
   nlohmann::json global_registration;
@@ -126,8 +129,9 @@ class Session {
   /// registration correction and insertion mask (no ICP or sampling is redone, so the model is
   /// bit-identical to the one before the restart), and reloads the last iteration's
   /// registration target (consolidated.ply, iso.ply of the last iteration, stored in double
-  /// precision) from the iteration directory. The planner is re-created and every scan replayed
-  /// into Planner::observe_scan. Unreferenced scan files
+  /// precision) from the iteration directory. The planner is re-created, given back the state it
+  /// had saved (Planner::saved_state, session.json "planner_state") and every scan replayed into
+  /// Planner::observe_scan as it was added (its added_correction). Unreferenced scan files
   /// (written but not acknowledged before a crash) are moved to scans/orphaned/; leftover temporary
   /// files are deleted. Throws InputError if `dir` holds no valid session.
   static Session open(const std::filesystem::path& dir);

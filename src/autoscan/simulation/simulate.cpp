@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <optional>
+#include <regex>
 #include <set>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -184,8 +185,19 @@ namespace {
 const char* kSimFile = "simulation.json";
 const char* kCheckpointFile = "checkpoints.json";
 const char* kRegistrationFile = "registration.json";
+const char* kSkippedFile = "skipped_views.json";
 
 bool same_position(const Pose& a, const Pose& b) { return (a.position - b.position).norm() < 1e-12; }
+
+// Temporary files of write_file_atomic (".NAME.tmp.PID.N") a kill left in the run directory before
+// its session existed (truth.ply, simulation.json); Session::open removes the later ones.
+void remove_temporaries(const fs::path& dir) {
+  static const std::regex pattern(R"(\..+\.tmp\.\d+\.\d+)");
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (std::regex_match(e.path().filename().string(), pattern) && e.is_regular_file(ec)) fs::remove(e.path(), ec);
+}
 
 class Loop {
  public:
@@ -204,6 +216,15 @@ class Loop {
     if (fs::exists(dir_ / kRegistrationFile)) {
       auto j = json::parse(read_text_file(dir_ / kRegistrationFile), nullptr, false);
       if (!j.is_discarded() && j.is_array()) registration_errors_ = j;
+    }
+    if (fs::exists(dir_ / kSkippedFile)) {
+      auto j = json::parse(read_text_file(dir_ / kSkippedFile), nullptr, false);
+      AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_array(), "{}: corrupt file", (dir_ / kSkippedFile).string());
+      for (const auto& e : j) {
+        AUTOSCAN_REQUIRE(e.is_array() && e.size() == 2 && e[0].is_number_integer() && e[1].is_number_integer(),
+                         "{}: expected [iteration, view] pairs", (dir_ / kSkippedFile).string());
+        skipped_views_.insert({e[0].get<int>(), e[1].get<int>()});
+      }
     }
   }
 
@@ -232,6 +253,7 @@ class Loop {
   SimulateResult run(session::Session& s) {
     Stopwatch clock;
     s.set_progress(progress_);
+    recover_registration_errors(s);
     blind_phase(s);
     nbv_phase(s);
     SimulateResult r;
@@ -239,7 +261,7 @@ class Loop {
     r.iterations = static_cast<int>(s.iterations().size());
     r.scans = static_cast<int>(s.scans().size());
     r.views = views_done(s);
-    r.skipped_views = skipped_;
+    r.skipped_views = static_cast<int>(skipped_views_.size());
     if (!s.iterations().empty()) {
       const auto& last = s.iterations().back();
       r.stop_reason = last.stop_reason;
@@ -288,23 +310,42 @@ class Loop {
     if (progress_ && !progress_(stage, fraction)) throw Cancelled(stage);
   }
 
-  // Scans `pose` and adds it; false when the scanner refuses the pose (unreachable, inside).
-  bool scan_and_add(session::Session& s, const Pose& pose) {
+  // Scans `pose` (view `view` of iteration `iteration`, -1 for the blind scan) and adds it; false
+  // when the scanner refuses the pose (unreachable, inside). A refused view is recorded (skipped_views
+  // .json) so that a resumed run counts it once and does not try it again.
+  bool scan_and_add(session::Session& s, const Pose& pose, int iteration, int view) {
+    if (skipped_views_.count({iteration, view})) return false;
     const auto id = static_cast<std::uint64_t>(s.scans().size());
     scanner::ScanResult r;
     try {
       r = scanner_->scan(pose, id, scan_seed());
     } catch (const InputError& e) {
       log::warn("simulate: view skipped: {}", e.what());
-      ++skipped_;
+      skipped_views_.insert({iteration, view});
+      json j = json::array();
+      for (const auto& [k, v] : skipped_views_) j.push_back({k, v});
+      write_text_atomic(dir_ / kSkippedFile, j.dump());
       return false;
     }
     if (r.cloud.empty()) {
       log::info("simulate: scan {} captured no points", id);
     }
     s.add_scan(r.cloud, pose);
-    record_registration_error(s, r);
+    record_registration_error(static_cast<int>(id), r);
     return true;
+  }
+
+  // A kill between add_scan and the write of registration.json loses the last scan's entry: the
+  // scan is taken again (deterministic in the seed and the scan id) to measure it as before.
+  void recover_registration_errors(const session::Session& s) {
+    std::set<int> have;
+    for (const auto& e : registration_errors_) have.insert(e.value("scan", -1));
+    for (const auto& rec : s.scans()) {
+      if (rec.points == 0 || have.count(rec.id)) continue;
+      const auto r = scanner_->scan(rec.reported_pose, static_cast<std::uint64_t>(rec.id), scan_seed());
+      record_registration_error(rec.id, r);
+      log::info("simulate: registration figures of scan {} recovered", rec.id);
+    }
   }
 
   // The simulator knows where the scanner really was: how far the reported pose put the scan's
@@ -312,8 +353,7 @@ class Loop {
   // (after; refreshed after every iteration, since the global registration moves scans again).
   // Mean over up to 64 of the scan's points, stored with the true motion so that a resumed run
   // measures the same.
-  void record_registration_error(const session::Session& s, const scanner::ScanResult& r) {
-    const auto& rec = s.scans().back();
+  void record_registration_error(int id, const scanner::ScanResult& r) {
     if (r.cloud.empty()) return;
     const Eigen::Isometry3d truth = r.actual.world_from_camera() * r.commanded.world_from_camera().inverse();
     const std::size_t n = r.cloud.size(), step = std::max<std::size_t>(1, n / 64);
@@ -327,12 +367,20 @@ class Loop {
     }
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) m.push_back(truth.matrix()(a, b));
-    registration_errors_.push_back({{"scan", rec.id},
-                                    {"truth", m},
-                                    {"probes", probes},
-                                    {"before", before / static_cast<double>(count)},
-                                    {"after", before / static_cast<double>(count)},
-                                    {"excluded", false}});
+    json entry = {{"scan", id},
+                  {"truth", m},
+                  {"probes", probes},
+                  {"before", before / static_cast<double>(count)},
+                  {"after", before / static_cast<double>(count)},
+                  {"excluded", false}};
+    // In scan order (a recovered entry may come after a later scan's).
+    auto at = registration_errors_.end();
+    for (auto it = registration_errors_.begin(); it != registration_errors_.end(); ++it)
+      if (it->value("scan", -1) > id) {
+        at = it;
+        break;
+      }
+    registration_errors_.insert(at, std::move(entry));
     write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump());
   }
 
@@ -398,7 +446,7 @@ class Loop {
         return same_position(r.reported_pose, poses[i]);
       });
       if (done) continue;
-      scan_and_add(s, poses[i]);
+      scan_and_add(s, poses[i], -1, static_cast<int>(i));
       tick("blind scan", static_cast<double>(i + 1) / static_cast<double>(poses.size()));
     }
     AUTOSCAN_CHECK(!s.scans().empty(), "simulate: the blind scan captured nothing (is the object within range?)");
@@ -407,7 +455,11 @@ class Loop {
   void attach_truth_if_missing(session::Session& s, const TriangleMesh* mesh) {
     if (!opts_.evaluate || s.iterations().empty()) return;
     const auto& last = s.iterations().back();
-    if (!last.truth.is_null() && !last.truth.empty()) return;
+    if (!last.truth.is_null() && !last.truth.empty()) {
+      // A kill between attach_truth and the checkpoint's write: record it now, as it was then.
+      record_checkpoint(last.truth.value("views_taken", views_done(s)), last.truth, last.mean_f);
+      return;
+    }
     TriangleMesh loaded;
     if (!mesh) {
       const fs::path p = dir_ / "iterations" / fmt::format("iter_{:03d}", last.index) / "mesh.ply";
@@ -454,6 +506,18 @@ class Loop {
     record_checkpoint(v, truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference()), model.mean_f);
   }
 
+  // A kill between the add_scan of a view and its maybe_checkpoint: the session still holds the
+  // model of that moment (no scan or iteration came after it), so the checkpoint is taken now.
+  void recover_checkpoint(session::Session& s, int k, const std::vector<planners::PlannedView>& views) {
+    if (s.scans().empty() || s.scans().back().model_iteration != k) return;
+    const auto& last = s.scans().back();
+    for (std::size_t vi = 0; vi < views.size(); ++vi)
+      if (same_position(last.reported_pose, views[vi].pose)) {
+        maybe_checkpoint(s, vi + 1 == views.size() || views_done(s) >= opts_.session.max_views);
+        return;
+      }
+  }
+
   void fill_checkpoints(const session::Session& s, SimulateResult& r) {
     if (opts_.checkpoints.empty() || !r.truth.is_object()) return;
     for (int c : opts_.checkpoints) {
@@ -489,6 +553,7 @@ class Loop {
       const auto vj = json::parse(read_text_file(vpath), nullptr, false);
       AUTOSCAN_REQUIRE(!vj.is_discarded(), "{}: not valid JSON", vpath.string());
       const auto views = planners::views_from_json(vj, vpath.string());
+      recover_checkpoint(s, k, views);
       for (std::size_t vi = 0; vi < views.size(); ++vi) {
         const auto& view = views[vi];
         const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
@@ -496,7 +561,8 @@ class Loop {
         });
         if (done) continue;
         if (views_done(s) >= max_views) break;
-        if (scan_and_add(s, view.pose)) maybe_checkpoint(s, vi + 1 == views.size() || views_done(s) >= max_views);
+        if (scan_and_add(s, view.pose, k, static_cast<int>(vi)))
+          maybe_checkpoint(s, vi + 1 == views.size() || views_done(s) >= max_views);
         tick("next-best views", std::min(1.0, views_done(s) / static_cast<double>(max_views)));
       }
       const auto step = s.next_views();
@@ -510,7 +576,7 @@ class Loop {
   ProgressCallback progress_;
   std::unique_ptr<scanner::VirtualScanner> scanner_;
   json checkpoints_ = json::array();
-  int skipped_ = 0;
+  std::set<std::pair<int, int>> skipped_views_;  // (iteration or -1 for the blind scan, view index)
   std::optional<PointCloud> reference_;
   json registration_errors_ = json::array();
 };
@@ -518,7 +584,7 @@ class Loop {
 }  // namespace
 
 SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const SimulateOptions& options_in,
-                        const ProgressCallback& progress) {
+                        const ProgressCallback& progress, const std::string& source) {
   SimulateOptions options = options_in;
   // The simulator knows its scanner's noise: WLOP (§4.1) runs only when there is noise to remove.
   if (options.session.consolidate.wlop.noise_hint < 0)
@@ -549,28 +615,53 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
                    "{}: already holds a simulation (use --resume to continue it, or another --out)", out.string());
   TriangleMesh truth = truth_in;
   if (options.normalize) normalize_to_benchmark_frame(truth);
+  remove_temporaries(out);
   fs::create_directories(out);
   // Double precision: resume() rebuilds the virtual scanner from this file, and a float-rounded mesh
   // would make every later scan differ from an uninterrupted run's in the last bits.
   io::WriteOptions exact;
   exact.double_coordinates = true;
   io::write_mesh(out / "truth.ply", truth, exact);
-  json sim = {{"format", "autoscan-simulation"}, {"version", 1}, {"truth", "truth.ply"}, {"options", to_json(options)}};
+  json sim = {{"format", "autoscan-simulation"},
+              {"version", 1},
+              {"truth", "truth.ply"},
+              {"source", source},
+              {"options", to_json(options)}};
   write_text_atomic(out / kSimFile, sim.dump(2));
   auto s = session::Session::create(out, options.scanner, options.rig, options.session);
   Loop loop(out, std::move(truth), options, progress);
   return loop.run(s);
 }
 
-SimulateResult resume(const fs::path& out, const ProgressCallback& progress) {
+RecordedSimulation recorded_simulation(const fs::path& out) {
   const fs::path sim_path = out / kSimFile;
   std::error_code ec;
   AUTOSCAN_REQUIRE(fs::exists(sim_path, ec), "{}: no simulation to resume (missing {})", out.string(), kSimFile);
   const auto sim = json::parse(read_text_file(sim_path), nullptr, false);
   AUTOSCAN_REQUIRE(!sim.is_discarded() && sim.is_object() && sim.contains("options"), "{}: corrupt simulation file",
                    sim_path.string());
-  SimulateOptions options = simulate_options_from_json(sim["options"], {}, sim_path.string());
+  RecordedSimulation r;
+  r.options = simulate_options_from_json(sim["options"], {}, sim_path.string());
+  if (sim.contains("source")) {
+    AUTOSCAN_REQUIRE(sim["source"].is_string(), "{}: source: expected a string", sim_path.string());
+    r.source = sim["source"].get<std::string>();
+  }
+  return r;
+}
+
+bool is_recorded_truth(const fs::path& out, const TriangleMesh& mesh) {
+  const auto rec = recorded_simulation(out);
+  TriangleMesh m = mesh;
+  if (rec.options.normalize) normalize_to_benchmark_frame(m);
+  const TriangleMesh truth = io::read_mesh(out / "truth.ply");
+  return m.vertices == truth.vertices && m.faces == truth.faces;
+}
+
+SimulateResult resume(const fs::path& out, const ProgressCallback& progress) {
+  SimulateOptions options = recorded_simulation(out).options;
+  std::error_code ec;
   TriangleMesh truth = io::read_mesh(out / "truth.ply");
+  if (!fs::exists(out / "session.json", ec)) remove_temporaries(out);
   auto s = fs::exists(out / "session.json", ec)
                ? session::Session::open(out)
                : session::Session::create(out, options.scanner, options.rig, options.session);

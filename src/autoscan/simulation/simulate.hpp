@@ -83,12 +83,26 @@ struct SimulateResult {
 
 /// Runs the loop on `truth` (normalised first unless options.normalize is false) into `out`
 /// (created; must not hold a session already). Throws InputError for bad options or an empty mesh.
+/// `source` (e.g. the --mesh path) is recorded in simulation.json for the messages of a resume.
 SimulateResult simulate(const TriangleMesh& truth, const std::filesystem::path& out, const SimulateOptions& options,
-                        const ProgressCallback& progress = {});
+                        const ProgressCallback& progress = {}, const std::string& source = {});
 
-/// Continues a simulation in `out` after a crash or a kill. Throws InputError if `out` holds no
-/// simulation.
+/// Continues a simulation in `out` after a crash or a kill: the result is the uninterrupted run's,
+/// bit for bit (docs/reliability.md, "Crash safety and exact resume"). Throws InputError if `out`
+/// holds no simulation.
 SimulateResult resume(const std::filesystem::path& out, const ProgressCallback& progress = {});
+
+/// What the simulation in `out` was started with (simulation.json): its options, as simulate()
+/// completed them, and the recorded source of the mesh ("" when none was recorded).
+struct RecordedSimulation {
+  SimulateOptions options;
+  std::string source;
+};
+/// Throws InputError if `out` holds no simulation or a corrupt simulation.json.
+RecordedSimulation recorded_simulation(const std::filesystem::path& out);
+/// True when `mesh`, brought into the benchmark frame as the run brought its mesh, is exactly the
+/// run's truth.ply (a resume given a --mesh refuses any other).
+bool is_recorded_truth(const std::filesystem::path& out, const TriangleMesh& mesh);
 
 /// Ground-truth figures of a model: the Poisson mesh against the truth (accuracy, completeness,
 /// precision/recall/F-score at τ, Figure 9 histogram) and the coverage of the raw points.
