@@ -15,6 +15,12 @@ function(autoscan_module name)
     target_link_libraries(autoscan_${name} PUBLIC autoscan::${d})
   endforeach()
   target_link_libraries(autoscan_${name} PUBLIC ${ARG_LIBS} PRIVATE ${ARG_PRIVATE_LIBS} autoscan_warnings)
+  if(AUTOSCAN_FUZZ)
+    target_compile_options(autoscan_${name} PRIVATE ${AUTOSCAN_FUZZ_FLAGS})
+    if(NOT name IN_LIST AUTOSCAN_FUZZ_MODULES)
+      target_compile_options(autoscan_${name} PRIVATE -O0 -g0)  # reached only by option checks: build fast
+    endif()
+  endif()
 endfunction()
 
 # autoscan_test(<module> [LIBS ...]): tests/<module>/*.cpp into test_<module>, registered with CTest.

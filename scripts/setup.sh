@@ -4,7 +4,8 @@
 # report's front-end packages from npm, then configures and builds a Release build in build/.
 #
 #   scripts/setup.sh            install + build (then: build/autoscan demo)
-#   scripts/setup.sh --test     install + build + run the whole test suite (what CI runs)
+#   scripts/setup.sh --test     install + build + run the whole test suite, then a minute of
+#                               fuzzing (scripts/fuzz.sh --ci, clang in build-fuzz/) (what CI runs)
 #   scripts/setup.sh --sanitize install + ASan/UBSan build in build-asan/ + run the test suite
 #   scripts/setup.sh --with-open3d  also install Open3D and build the peer benchmarks
 set -euo pipefail
@@ -19,7 +20,7 @@ for arg in "$@"; do
     --test) RUN_TESTS=1 ;;
     --sanitize) SANITIZE=1; RUN_TESTS=1 ;;
     --with-open3d) WITH_OPEN3D=1 ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "setup.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
@@ -32,6 +33,7 @@ PACKAGES=(
   libeigen3-dev libtbb-dev libembree-dev libnanoflann-dev libcgal-dev libgmp-dev libmpfr-dev
   libceres-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  clang-14 libclang-rt-14-dev
   chromium
 )
 # The report's front end is bundled with npm and tested in headless Chromium (Playwright).
@@ -73,4 +75,8 @@ if [ "$RUN_TESTS" = 1 ]; then
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   fi
   ctest --test-dir "$BUILD" --output-on-failure -j "$JOBS" --timeout 900
+  if [ "$SANITIZE" = 0 ]; then
+    # libFuzzer targets of every parser (fuzz/, docs/reliability.md), about a minute in all.
+    bash scripts/fuzz.sh --ci
+  fi
 fi
