@@ -60,7 +60,8 @@ struct WriteOptions {
   bool ascii = false;               ///< PLY and STL: text instead of binary (OBJ and OFF are always text)
   bool big_endian = false;          ///< binary PLY: big instead of little endian
   bool double_coordinates = false;  ///< PLY: positions and normals as double instead of float
-  bool double_scalars = false;      ///< PLY: named scalars as double instead of float
+  bool double_scalars = false;      ///< PLY: named scalars as double instead of float (a column
+                                    ///< with a value beyond float's range is double anyway)
 };
 
 /// Writes a mesh, format by extension: .ply (vertex normals, colours and named scalars kept),
