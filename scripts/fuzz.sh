@@ -97,17 +97,23 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # Runs one target for SECONDS_EACH seconds; prints and records its executions.
 run_target() {
   local t=$1
-  local exe=$BUILD/fuzz/fuzz_$t findings=$BUILD/findings/$t log=$BUILD/logs/$t.log
+  local exe=$BUILD/fuzz/fuzz_$t findings=$BUILD/findings/$t log=$BUILD/logs/$t-$(date -u +%Y%m%dT%H%M%S).log
   mkdir -p "$findings" "$BUILD/logs"
   seed_corpus "$t"
-  local rc=0
+  local rc=0 start
+  start=$(date +%s)
   nice -n 19 "$exe" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
     -print_final_stats=1 -dict="$(dict_of "$t")" -artifact_prefix="$findings/" "$BUILD/corpus/$t" \
     >"$log" 2>&1 || rc=$?
   local runs secs result
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
-  secs=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$log" | tail -1)
-  if [ "$rc" = 0 ]; then result=ok; else result="FINDING (exit $rc)"; fi
+  secs=$(( $(date +%s) - start ))
+  # 72: libFuzzer's exit code when interrupted (Ctrl-C, kill -INT): no finding.
+  case "$rc" in
+    0) result=ok ;;
+    72) result=interrupted; rc=0 ;;
+    *) result="FINDING (exit $rc)" ;;
+  esac
   printf '%s\t%s\t%s\t%s\t%s\n' "$(date -u +%FT%TZ)" "$t" "${secs:-?}" "${runs:-?}" "$result" >>"$BUILD/fuzz-runs.tsv"
   printf 'fuzz %-13s %6s s %12s runs  %s\n' "$t" "${secs:-?}" "${runs:-?}" "$result"
   if [ "$rc" != 0 ]; then
