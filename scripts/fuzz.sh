@@ -7,11 +7,12 @@
 #   scripts/fuzz.sh --parallel --time 3600   every target at once (one process each)
 #   scripts/fuzz.sh --ci                every target briefly: about a minute in all (setup.sh --test)
 #   scripts/fuzz.sh --build-only        configure and build only
+#   scripts/fuzz.sh --no-build ...      run the targets as they are built
 #
 # Targets: ply obj off stl pose views session_json. Each keeps a growing corpus in
 # build-fuzz/corpus/<target>/ (started from fuzz/seeds/<target>/ and, for the geometry readers, the
 # malformed files of tests/data/malformed/). A crash, sanitizer report, uncaught exception other
-# than InputError, timeout (-timeout, default 10 s per input) or allocation beyond -rss_limit_mb
+# than InputError, hang (60 s on one input; AUTOSCAN_FUZZ_TIMEOUT) or allocation beyond -rss_limit_mb
 # writes the input to build-fuzz/findings/<target>/ and makes the script exit 1. Every run appends
 # "date target seconds runs result" to build-fuzz/fuzz-runs.tsv. The fuzzers run at nice 19.
 # Reproduce a finding: build-fuzz/fuzz/fuzz_<target> build-fuzz/findings/<target>/crash-...
@@ -24,17 +25,22 @@ SECONDS_EACH=60
 CI=0
 PARALLEL=0
 BUILD_ONLY=0
+NO_BUILD=0
+# Seconds of wall-clock time one input may take: generous, because on a loaded machine a fuzzer at
+# nice 19 can wait seconds for the CPU; a real hang (a quadratic parser) still exceeds it.
+TIMEOUT=${AUTOSCAN_FUZZ_TIMEOUT:-60}
 TARGETS=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --ci) CI=1 ;;
     --parallel) PARALLEL=1 ;;
     --build-only) BUILD_ONLY=1 ;;
+    --no-build) NO_BUILD=1 ;;
     --time)
       [ $# -ge 2 ] || { echo "fuzz.sh: --time needs a number of seconds" >&2; exit 2; }
       SECONDS_EACH=$2
       shift ;;
-    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option '$1'" >&2; exit 2 ;;
     *)
       if [[ " ${ALL_TARGETS[*]} " != *" $1 "* ]]; then
@@ -71,7 +77,7 @@ if [ ! -f "$BUILD/build.ninja" ]; then
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only" -DAUTOSCAN_FUZZ=ON -DAUTOSCAN_BUILD_TESTS=OFF \
     -DAUTOSCAN_BUILD_BENCHMARKS=OFF -DAUTOSCAN_BUILD_CLI=OFF >/dev/null
 fi
-nice -n 19 cmake --build "$BUILD" -j "$JOBS" --target "${TARGETS[@]/#/fuzz_}"
+[ "$NO_BUILD" = 1 ] || nice -n 19 cmake --build "$BUILD" -j "$JOBS" --target "${TARGETS[@]/#/fuzz_}"
 [ "$BUILD_ONLY" = 1 ] && exit 0
 
 dict_of() {
@@ -102,7 +108,7 @@ run_target() {
   seed_corpus "$t"
   local rc=0 start
   start=$(date +%s)
-  nice -n 19 "$exe" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
+  nice -n 19 "$exe" -max_total_time="$SECONDS_EACH" -timeout="$TIMEOUT" -rss_limit_mb=2048 -max_len=65536 \
     -print_final_stats=1 -dict="$(dict_of "$t")" -artifact_prefix="$findings/" "$BUILD/corpus/$t" \
     >"$log" 2>&1 || rc=$?
   local runs secs result

@@ -760,16 +760,16 @@ Session Session::open(const fs::path& dir) {
   const std::string where = (dir / "session.json").string();
   // 1. The whole file is validated (types, ranges, consistency) before anything is applied or any
   //    file is touched: a file that cannot be read moves no data (issue 21).
-  SessionFile file = parse_session_json(read_text_file(dir / "session.json"), where);
-  impl->scanner = std::move(file.scanner);
-  impl->rig = std::move(file.rig);
-  impl->options = std::move(file.options);
-  impl->current_pose = file.current_pose;
-  impl->views_planned = file.views_planned;
-  impl->stopped = file.stopped;
-  impl->stop_reason = std::move(file.stop_reason);
-  impl->iterations = std::move(file.iterations);
-  std::vector<ScanRecord> records = std::move(file.scans);
+  SessionFile stored = parse_session_json(read_text_file(dir / "session.json"), where);
+  impl->scanner = std::move(stored.scanner);
+  impl->rig = std::move(stored.rig);
+  impl->options = std::move(stored.options);
+  impl->current_pose = stored.current_pose;
+  impl->views_planned = stored.views_planned;
+  impl->stopped = stored.stopped;
+  impl->stop_reason = std::move(stored.stop_reason);
+  impl->iterations = std::move(stored.iterations);
+  std::vector<ScanRecord> records = std::move(stored.scans);
   impl->make_planner_object();
 
   // 2. Scan files session.json does not name. A crash during add_scan leaves at most the files of the
