@@ -240,8 +240,8 @@ TEST(SessionHardening, ParseSessionJsonReadsAndRefusesWhatOpenDoes) {
   }
   EXPECT_EQ(f.options.planner, s.options().planner);
   EXPECT_EQ(f.iterations.size(), s.iterations().size());
-  for (const std::string bad : {std::string("{"), std::string("1e999"), std::string("[]"),
-                                std::string(good).replace(good.find("\"scans\""), 7, "\"scanz\"")}) {
+  for (const std::string& bad : {std::string("{"), std::string("1e999"), std::string("[]"),
+                                 std::string(good).replace(good.find("\"scans\""), 7, "\"scanz\"")}) {
     try {
       parse_session_json(bad, "mem/session.json");
       ADD_FAILURE() << bad.substr(0, 40) << ": accepted";
