@@ -17,6 +17,12 @@ function(autoscan_module name)
   endforeach()
   target_link_libraries(autoscan_${name} PUBLIC ${ARG_LIBS} PRIVATE ${ARG_PRIVATE_LIBS}
                                                                $<BUILD_INTERFACE:autoscan_warnings>)
+  if(AUTOSCAN_FUZZ)
+    target_compile_options(autoscan_${name} PRIVATE ${AUTOSCAN_FUZZ_FLAGS})
+    if(NOT name IN_LIST AUTOSCAN_FUZZ_MODULES)
+      target_compile_options(autoscan_${name} PRIVATE -O0 -g0)  # reached only by option checks: build fast
+    endif()
+  endif()
   if(AUTOSCAN_INSTALL)
     install(TARGETS autoscan_${name} EXPORT autoscanTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
     install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/autoscan/${name}

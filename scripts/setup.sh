@@ -5,7 +5,8 @@
 # installs the Python module (`python3 -c "import autoscan"`, docs/python.md).
 #
 #   scripts/setup.sh            install + build (then: build/autoscan demo)
-#   scripts/setup.sh --test     install + build + run the whole test suite (what CI runs)
+#   scripts/setup.sh --test     install + build + run the whole test suite, then a minute of
+#                               fuzzing (scripts/fuzz.sh --ci, clang in build-fuzz/) (what CI runs)
 #   scripts/setup.sh --sanitize install + ASan/UBSan build in build-asan/ + run the test suite
 #   scripts/setup.sh --with-open3d  also install Open3D and build the peer benchmarks
 set -euo pipefail
@@ -20,7 +21,7 @@ for arg in "$@"; do
     --test) RUN_TESTS=1 ;;
     --sanitize) SANITIZE=1; RUN_TESTS=1 ;;
     --with-open3d) WITH_OPEN3D=1 ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "setup.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
@@ -34,6 +35,7 @@ PACKAGES=(
   libceres-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-dev pybind11-dev python3-numpy python3-pytest
+  clang-14 libclang-rt-14-dev
   chromium
 )
 # The report's front end is bundled with npm and tested in headless Chromium (Playwright).
@@ -83,4 +85,8 @@ if [ "$RUN_TESTS" = 1 ]; then
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   fi
   ctest --test-dir "$BUILD" --output-on-failure -j "$JOBS" --timeout 900
+  if [ "$SANITIZE" = 0 ]; then
+    # libFuzzer targets of every parser (fuzz/, docs/reliability.md), about a minute in all.
+    bash scripts/fuzz.sh --ci
+  fi
 fi

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 
@@ -212,5 +213,25 @@ TEST(Malformed, ValuesOutsideTheirTypeOrTheCoordinateBoundAreRefused) {
   autoscan::testing::write_bytes(dir / "f.ply", far);
   EXPECT_NE(error_of([&] { (void)io::read_point_cloud(dir / "f.ply"); }).find("vertex 2 has a coordinate beyond"),
             std::string::npos);
+  fs::remove_all(dir);
+}
+
+// parse_geometry is read_geometry without the file (the fuzz targets call it, fuzz/): the same
+// result for the same bytes, and its messages name the name it is given.
+TEST(Malformed, ParseGeometryInMemoryMatchesTheFileReaderAndNamesItsInput) {
+  const auto dir = autoscan::testing::temp_dir("parse_geometry");
+  const fs::path file = dir / "tet.ply";
+  io::write_mesh(file, autoscan::testing::tetrahedron());
+  std::ifstream in(file, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto from_file = io::read_geometry(file);
+  const auto from_memory = io::parse_geometry(bytes, io::FileFormat::ply, "in-memory.ply");
+  EXPECT_EQ(from_memory.vertices.positions, from_file.vertices.positions);
+  EXPECT_EQ(from_memory.faces, from_file.faces);
+  EXPECT_EQ(from_memory.format, from_file.format);
+  const std::string empty = error_of([] { io::parse_geometry("", io::FileFormat::obj, "in-memory.obj"); });
+  EXPECT_EQ(empty.rfind("in-memory.obj: is empty", 0), 0u) << empty;
+  const std::string bad = error_of([&] { io::parse_geometry(bytes, io::FileFormat::off, "in-memory.off"); });
+  EXPECT_EQ(bad.rfind("in-memory.off: ", 0), 0u) << bad;
   fs::remove_all(dir);
 }

@@ -4,6 +4,8 @@
 
 #include <bit>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/io/mesh_io.hpp"
@@ -370,5 +372,29 @@ TEST(MeshIo, WritesReplaceExistingFilesAtomically) {
   std::size_t files = 0;
   for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
   EXPECT_EQ(files, 1u);  // no temporary left over
+  std::filesystem::remove_all(dir);
+}
+
+// Found by fuzzing (fuzz_ply's round trip, docs/reliability.md): a PLY double scalar beyond float's
+// range was read, then written as float (the default) — as inf — so the written file could not be
+// read back (`convert` made a file no reader accepts). Such a column is now written as double.
+TEST(MeshIo, PlyScalarBeyondFloatRangeSurvivesARoundTripWithDefaultOptions) {
+  const auto dir = temp_dir("ply_scalar_range");
+  write_bytes(dir / "in.ply",
+              "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+              "property double quality\nproperty float intensity\nend_header\n0 0 0 1e300 1\n1 0 0 -4e38 2\n");
+  const PointCloud in = read_point_cloud(dir / "in.ply");
+  for (const WriteOptions& o : {WriteOptions{}, WriteOptions{.ascii = true}, WriteOptions{.big_endian = true}}) {
+    write_point_cloud(dir / "out.ply", in, o);
+    const PointCloud out = read_point_cloud(dir / "out.ply");
+    ASSERT_EQ(out.size(), 2u);
+    EXPECT_EQ(out.scalars.get("quality"), (std::vector<double>{1e300, -4e38}));
+    EXPECT_EQ(out.scalars.get("intensity"), (std::vector<double>{1.0, 2.0}));
+  }
+  // The other columns keep the float the options ask for.
+  std::ifstream f(dir / "out.ply", std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("property double quality\n"), std::string::npos);
+  EXPECT_NE(text.find("property float intensity\n"), std::string::npos);
   std::filesystem::remove_all(dir);
 }

@@ -220,3 +220,34 @@ TEST(SessionHardening, StaleTemporariesOfTheSessionsOwnWritesAreRemovedAtOpen) {
   EXPECT_TRUE(fs::exists(unrecorded / ".mesh.ply.tmp.backup"));
   fs::remove_all(dir);
 }
+
+// parse_session_json is the validation Session::open runs before it applies anything (the fuzz
+// target fuzz/fuzz_session_json.cpp calls it): it reads what open() reads, and refuses in memory
+// what open() refuses, naming the `where` it is given.
+TEST(SessionHardening, ParseSessionJsonReadsAndRefusesWhatOpenDoes) {
+  const auto dir = fresh_dir("hard_parse");
+  {
+    auto s = Session::create(dir, ScannerSpec{}, Rig{}, test::test_options());
+    add_blind_scans(s);
+  }
+  const std::string good = read_text(dir / "session.json");
+  const SessionFile f = parse_session_json(good, "mem/session.json");
+  const auto s = Session::open(dir);
+  ASSERT_EQ(f.scans.size(), s.scans().size());
+  for (std::size_t i = 0; i < f.scans.size(); ++i) {
+    EXPECT_EQ(f.scans[i].points, s.scans()[i].points);
+    EXPECT_EQ(f.scans[i].inserted, s.scans()[i].inserted);
+  }
+  EXPECT_EQ(f.options.planner, s.options().planner);
+  EXPECT_EQ(f.iterations.size(), s.iterations().size());
+  for (const std::string& bad : {std::string("{"), std::string("1e999"), std::string("[]"),
+                                 std::string(good).replace(good.find("\"scans\""), 7, "\"scanz\"")}) {
+    try {
+      parse_session_json(bad, "mem/session.json");
+      ADD_FAILURE() << bad.substr(0, 40) << ": accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("mem/session.json: ", 0), 0u) << e.what();
+    }
+  }
+  fs::remove_all(dir);
+}

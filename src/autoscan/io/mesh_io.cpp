@@ -85,28 +85,40 @@ GeometryFile read_geometry_unchecked(const std::string& p, FileFormat kind, cons
 
 }  // namespace
 
-GeometryFile read_geometry(const fs::path& path) {
-  const std::string p = path.string();
-  const FileFormat kind = format_from_extension(path);
+GeometryFile parse_geometry(const std::string& bytes, FileFormat format, const std::string& name) {
+  if (bytes.empty()) detail::fail(name, "is empty");
   GeometryFile g;
   try {
     // Counts are checked against the file's size before anything is allocated, but a large valid
     // file still takes about twice its size or more in memory (double coordinates).
-    g = read_geometry_unchecked(p, kind, detail::load_file(path));
+    g = read_geometry_unchecked(name, format, bytes);
+  } catch (const std::bad_alloc&) {
+    throw InputError(fmt::format("{}: too large to read: out of memory ({:.1f} MB file)", name,
+                                 static_cast<double>(bytes.size()) / 1e6));
+  }
+  // Readers check as they go; this is the final guarantee of the contract.
+  g.vertices.validate(name);
+  const auto n = static_cast<long long>(g.vertices.size());
+  for (std::size_t f = 0; f < g.faces.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+      AUTOSCAN_REQUIRE(g.faces[f][k] >= 0 && g.faces[f][k] < n, "{}: face {} references vertex {} ({} vertices)", name,
+                       f, g.faces[f][k], n);
+  return g;
+}
+
+GeometryFile read_geometry(const fs::path& path) {
+  const std::string p = path.string();
+  const FileFormat kind = format_from_extension(path);
+  std::string bytes;
+  try {
+    bytes = detail::load_file(path);
   } catch (const std::bad_alloc&) {
     std::error_code ec;
     const auto size = fs::file_size(path, ec);
     throw InputError(fmt::format("{}: too large to read: out of memory ({:.1f} MB file)", p,
                                  ec ? 0.0 : static_cast<double>(size) / 1e6));
   }
-  // Readers check as they go; this is the final guarantee of the contract.
-  g.vertices.validate(p);
-  const auto n = static_cast<long long>(g.vertices.size());
-  for (std::size_t f = 0; f < g.faces.size(); ++f)
-    for (int k = 0; k < 3; ++k)
-      AUTOSCAN_REQUIRE(g.faces[f][k] >= 0 && g.faces[f][k] < n, "{}: face {} references vertex {} ({} vertices)", p, f,
-                       g.faces[f][k], n);
-  return g;
+  return parse_geometry(bytes, kind, p);
 }
 
 TriangleMesh read_mesh(const fs::path& path) {

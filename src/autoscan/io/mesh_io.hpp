@@ -42,6 +42,11 @@ struct GeometryFile {
 /// Reads any supported file. Faces may be empty.
 GeometryFile read_geometry(const std::filesystem::path& path);
 
+/// Parses a whole file already in memory as `format`, with every check read_geometry makes (it
+/// loads the file and calls this); `name` stands for the path in the messages. Used by the fuzz
+/// targets (fuzz/, docs/reliability.md) and by callers that hold the bytes.
+GeometryFile parse_geometry(const std::string& bytes, FileFormat format, const std::string& name);
+
 /// Reads a triangle mesh (polygons fan-triangulated; STL vertices welded when bit-identical).
 /// PLY vertex normals, colours (red green blue) and other scalar vertex properties are kept.
 /// Throws InputError when the file has no faces.
@@ -59,7 +64,8 @@ struct WriteOptions {
   bool ascii = false;               ///< PLY and STL: text instead of binary (OBJ and OFF are always text)
   bool big_endian = false;          ///< binary PLY: big instead of little endian
   bool double_coordinates = false;  ///< PLY: positions and normals as double instead of float
-  bool double_scalars = false;      ///< PLY: named scalars as double instead of float
+  bool double_scalars = false;      ///< PLY: named scalars as double instead of float (a column
+                                    ///< with a value beyond float's range is double anyway)
 };
 
 /// Writes a mesh, format by extension: .ply (vertex normals, colours and named scalars kept),

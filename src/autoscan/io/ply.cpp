@@ -516,7 +516,6 @@ void write_ply(std::ostream& os, const PlyVertexData& v, const std::vector<Tri>&
   const bool binary = !o.ascii;
   const bool big = o.big_endian;
   const char* coord_type = o.double_coordinates ? "double" : "float";
-  const char* scalar_type = o.double_scalars ? "double" : "float";
   OutBuffer out(os);
   std::string& s = out.str();
   s += "ply\n";
@@ -529,15 +528,24 @@ void write_ply(std::ostream& os, const PlyVertexData& v, const std::vector<Tri>&
     for (const char* c : {"nx", "ny", "nz"}) s += fmt::format("property {} {}\n", coord_type, c);
   if (colors)
     for (const char* c : {"red", "green", "blue"}) s += fmt::format("property uchar {}\n", c);
-  for (const auto& [name, col] : v.scalars.columns()) s += fmt::format("property {} {}\n", scalar_type, name);
+  // A column holding a value beyond float's range is written as double whatever the options say:
+  // as float it would hold inf, which no reader accepts (found by fuzzing, docs/reliability.md).
+  std::vector<const std::vector<double>*> cols;
+  std::vector<char> col_double;
+  for (const auto& [name, col] : v.scalars.columns()) {
+    const bool dbl = o.double_scalars || std::any_of(col.begin(), col.end(), [](double x) {
+                       return std::abs(x) > static_cast<double>(std::numeric_limits<float>::max());
+                     });
+    s += fmt::format("property {} {}\n", dbl ? "double" : "float", name);
+    cols.push_back(&col);
+    col_double.push_back(dbl ? 1 : 0);
+  }
   if (!faces.empty()) {
     s += fmt::format("element face {}\n", faces.size());
     s += "property list uchar int vertex_indices\n";
   }
   s += "end_header\n";
 
-  std::vector<const std::vector<double>*> cols;
-  for (const auto& [name, col] : v.scalars.columns()) cols.push_back(&col);
   if (binary) {
     auto real = [&](double x, bool dbl) {
       if (dbl)
@@ -551,7 +559,7 @@ void write_ply(std::ostream& os, const PlyVertexData& v, const std::vector<Tri>&
         for (int k = 0; k < 3; ++k) real(v.normals[i][k], o.double_coordinates);
       if (colors)
         for (int k = 0; k < 3; ++k) out.put<std::uint8_t>(v.colors[i][k], big);
-      for (const auto* c : cols) real((*c)[i], o.double_scalars);
+      for (std::size_t c = 0; c < cols.size(); ++c) real((*cols[c])[i], col_double[c] != 0);
       out.maybe_flush();
     }
     for (const auto& f : faces) {
@@ -576,7 +584,7 @@ void write_ply(std::ostream& os, const PlyVertexData& v, const std::vector<Tri>&
       if (normals)
         for (int k = 0; k < 3; ++k) real(v.normals[i][k], o.double_coordinates);
       if (colors) fmt::format_to(it, " {} {} {}", v.colors[i][0], v.colors[i][1], v.colors[i][2]);
-      for (const auto* c : cols) real((*c)[i], o.double_scalars);
+      for (std::size_t c = 0; c < cols.size(); ++c) real((*cols[c])[i], col_double[c] != 0);
       s += '\n';
       out.maybe_flush();
     }

@@ -380,6 +380,74 @@ IterationRecord iteration_from_json(const json& j, const std::string& what, int 
 
 }  // namespace
 
+SessionFile parse_session_json(std::string_view text, const std::string& where) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for 1e999
+    throw InputError(fmt::format("{}: not valid JSON: {}", where, e.what()));
+  }
+  SessionFile out;
+  std::vector<ScanRecord>& records = out.scans;
+  try {
+    AUTOSCAN_REQUIRE(j.is_object() && j.value("format", "") == kFormat, "{}: not an autoscan session file", where);
+    AUTOSCAN_REQUIRE(j.contains("version") && j.at("version") == kVersion, "{}: version: unsupported version {}", where,
+                     j.contains("version") ? brief(j.at("version")) : std::string("(missing)"));
+    for (const char* key : {"scanner", "rig", "params", "scans", "iterations"})
+      AUTOSCAN_REQUIRE(j.contains(key), "{}: missing '{}'", where, key);
+    out.scanner = scanner_from_json(j.at("scanner"), where + ": scanner");
+    out.rig = rig_from_json(j.at("rig"), where + ": rig");
+    out.options = session_options_from_json(j.at("params"), {}, where + ": params");
+    out.options.validate();
+    if (j.contains("current_pose") && !j.at("current_pose").is_null())
+      out.current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
+    if (j.contains("views_planned"))
+      out.views_planned = static_cast<int>(integer_in(j.at("views_planned"), where + ": views_planned", 0, INT_MAX));
+    if (j.contains("stopped")) out.stopped = boolean(j.at("stopped"), where + ": stopped");
+    if (j.contains("stop_reason")) out.stop_reason = string_or_null(j.at("stop_reason"), where + ": stop_reason");
+    if (j.contains("planner_state")) out.planner_state = j.at("planner_state");
+    const json& scans_j = j.at("scans");
+    const json& iters_j = j.at("iterations");
+    AUTOSCAN_REQUIRE(scans_j.is_array(), "{}: scans: expected an array of scan records (got {})", where,
+                     brief(scans_j));
+    AUTOSCAN_REQUIRE(iters_j.is_array(), "{}: iterations: expected an array of iteration records (got {})", where,
+                     brief(iters_j));
+    for (std::size_t i = 0; i < iters_j.size(); ++i)
+      out.iterations.push_back(
+          iteration_from_json(iters_j[i], fmt::format("{}: iterations[{}]", where, i), static_cast<int>(i)));
+    const int n_iterations = static_cast<int>(out.iterations.size());
+    for (std::size_t i = 0; i < scans_j.size(); ++i)
+      records.push_back(
+          scan_from_json(scans_j[i], fmt::format("{}: scans[{}]", where, i), static_cast<int>(i), n_iterations));
+    // Each scan belongs to at most one iteration, in order; every scan an iteration lists exists.
+    int next = 0;
+    for (std::size_t k = 0; k < out.iterations.size(); ++k) {
+      const auto& ids = out.iterations[k].scans;
+      for (std::size_t i = 0; i < ids.size(); ++i) {
+        AUTOSCAN_REQUIRE(ids[i] < static_cast<int>(records.size()),
+                         "{}: iterations[{}].scans[{}]: scan {} does not exist (session.json lists {} scans)", where, k,
+                         i, ids[i], records.size());
+        AUTOSCAN_REQUIRE(ids[i] >= next, "{}: iterations[{}].scans[{}]: scan {} listed out of order or twice", where, k,
+                         i, ids[i]);
+        next = ids[i] + 1;
+      }
+    }
+    std::size_t model_points = 0;
+    for (const auto& r : records)
+      if (!r.excluded) model_points += r.inserted;
+    if (j.contains("model_points")) {
+      const auto stated = integer_in(j.at("model_points"), where + ": model_points", 0, kMaxCount);
+      AUTOSCAN_REQUIRE(static_cast<std::size_t>(stated) == model_points,
+                       "{}: scans: the scans listed hold {} inserted points but model_points says {}: session.json "
+                       "is inconsistent; nothing was moved",
+                       where, model_points, stated);
+    }
+  } catch (const json::exception& e) {  // a type the checks above did not foresee: still named
+    throw InputError(fmt::format("{}: {}", where, e.what()));
+  }
+  return out;
+}
+
 // ---- Session ---------------------------------------------------------------------------------------
 
 struct Session::Impl {
@@ -704,74 +772,22 @@ Session Session::open(const fs::path& dir) {
   impl->dir = dir;
   impl->lock();
   const std::string where = (dir / "session.json").string();
-  json j;
-  try {
-    j = json::parse(read_text_file(dir / "session.json"));
-  } catch (const json::exception& e) {  // parse_error, or out_of_range for 1e999
-    throw InputError(fmt::format("{}: not valid JSON: {}", where, e.what()));
-  }
   // 1. The whole file is validated (types, ranges, consistency) before anything is applied or any
   //    file is touched: a file that cannot be read moves no data (issue 21).
-  std::vector<ScanRecord> records;
-  try {
-    AUTOSCAN_REQUIRE(j.is_object() && j.value("format", "") == kFormat, "{}: not an autoscan session file", where);
-    AUTOSCAN_REQUIRE(j.contains("version") && j.at("version") == kVersion, "{}: version: unsupported version {}", where,
-                     j.contains("version") ? brief(j.at("version")) : std::string("(missing)"));
-    for (const char* key : {"scanner", "rig", "params", "scans", "iterations"})
-      AUTOSCAN_REQUIRE(j.contains(key), "{}: missing '{}'", where, key);
-    impl->scanner = scanner_from_json(j.at("scanner"), where + ": scanner");
-    impl->rig = rig_from_json(j.at("rig"), where + ": rig");
-    impl->options = session_options_from_json(j.at("params"), {}, where + ": params");
-    impl->options.validate();
-    if (j.contains("current_pose") && !j.at("current_pose").is_null())
-      impl->current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
-    if (j.contains("views_planned"))
-      impl->views_planned = static_cast<int>(integer_in(j.at("views_planned"), where + ": views_planned", 0, INT_MAX));
-    if (j.contains("stopped")) impl->stopped = boolean(j.at("stopped"), where + ": stopped");
-    if (j.contains("stop_reason")) impl->stop_reason = string_or_null(j.at("stop_reason"), where + ": stop_reason");
-    const json& scans_j = j.at("scans");
-    const json& iters_j = j.at("iterations");
-    AUTOSCAN_REQUIRE(scans_j.is_array(), "{}: scans: expected an array of scan records (got {})", where,
-                     brief(scans_j));
-    AUTOSCAN_REQUIRE(iters_j.is_array(), "{}: iterations: expected an array of iteration records (got {})", where,
-                     brief(iters_j));
-    for (std::size_t i = 0; i < iters_j.size(); ++i)
-      impl->iterations.push_back(
-          iteration_from_json(iters_j[i], fmt::format("{}: iterations[{}]", where, i), static_cast<int>(i)));
-    const int n_iterations = static_cast<int>(impl->iterations.size());
-    for (std::size_t i = 0; i < scans_j.size(); ++i)
-      records.push_back(
-          scan_from_json(scans_j[i], fmt::format("{}: scans[{}]", where, i), static_cast<int>(i), n_iterations));
-    // Each scan belongs to at most one iteration, in order; every scan an iteration lists exists.
-    int next = 0;
-    for (std::size_t k = 0; k < impl->iterations.size(); ++k) {
-      const auto& ids = impl->iterations[k].scans;
-      for (std::size_t i = 0; i < ids.size(); ++i) {
-        AUTOSCAN_REQUIRE(ids[i] < static_cast<int>(records.size()),
-                         "{}: iterations[{}].scans[{}]: scan {} does not exist (session.json lists {} scans)", where, k,
-                         i, ids[i], records.size());
-        AUTOSCAN_REQUIRE(ids[i] >= next, "{}: iterations[{}].scans[{}]: scan {} listed out of order or twice", where, k,
-                         i, ids[i]);
-        next = ids[i] + 1;
-      }
-    }
-    std::size_t model_points = 0;
-    for (const auto& r : records)
-      if (!r.excluded) model_points += r.inserted;
-    if (j.contains("model_points")) {
-      const auto stated = integer_in(j.at("model_points"), where + ": model_points", 0, kMaxCount);
-      AUTOSCAN_REQUIRE(static_cast<std::size_t>(stated) == model_points,
-                       "{}: scans: the scans listed hold {} inserted points but model_points says {}: session.json "
-                       "is inconsistent; nothing was moved",
-                       where, model_points, stated);
-    }
-  } catch (const json::exception& e) {  // a type the checks above did not foresee: still named
-    throw InputError(fmt::format("{}: {}", where, e.what()));
-  }
+  SessionFile stored = parse_session_json(read_text_file(dir / "session.json"), where);
+  impl->scanner = std::move(stored.scanner);
+  impl->rig = std::move(stored.rig);
+  impl->options = std::move(stored.options);
+  impl->current_pose = stored.current_pose;
+  impl->views_planned = stored.views_planned;
+  impl->stopped = stored.stopped;
+  impl->stop_reason = std::move(stored.stop_reason);
+  impl->iterations = std::move(stored.iterations);
+  std::vector<ScanRecord> records = std::move(stored.scans);
   impl->make_planner_object();
   // What the planner fixed at an earlier plan() (an occupancy grid's frame), before the replay below.
-  if (j.contains("planner_state") && impl->planner)
-    impl->planner->restore_state(j.at("planner_state"), where + ": planner_state");
+  if (!stored.planner_state.is_null() && impl->planner)
+    impl->planner->restore_state(stored.planner_state, where + ": planner_state");
 
   // 2. Scan files session.json does not name. A crash during add_scan leaves at most the files of the
   //    next id (written, never acknowledged): those are set aside below. Anything beyond means that

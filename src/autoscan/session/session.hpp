@@ -119,6 +119,28 @@ nlohmann::json to_json(const SessionStatus& s);
 nlohmann::json to_json(const IterationRecord& r);
 nlohmann::json to_json(const ScanRecord& r);
 
+/// What session.json holds, read and validated (types, ranges, consistency) but not applied.
+struct SessionFile {
+  ScannerSpec scanner;
+  Rig rig;
+  SessionOptions options;  ///< validated (SessionOptions::validate)
+  std::optional<Pose> current_pose;
+  int views_planned = 0;
+  bool stopped = false;
+  std::string stop_reason;
+  std::vector<IterationRecord> iterations;
+  std::vector<ScanRecord> scans;  ///< every scan an iteration lists exists, in order
+  /// What the planner fixed at an earlier plan() (null if none); checked by the planner's
+  /// restore_state when the session is opened.
+  nlohmann::json planner_state;
+};
+
+/// Parses and validates the text of a session.json; `where` names it in the messages. Throws
+/// InputError for anything that is not a valid session file (never a raw JSON exception); reads
+/// and moves no other file. Session::open reads session.json through this; the fuzz target
+/// fuzz/fuzz_session_json.cpp calls it directly (docs/reliability.md).
+SessionFile parse_session_json(std::string_view text, const std::string& where);
+
 class Session {
  public:
   /// Creates a new session in `dir` (created if missing; must not already hold a session.json).
