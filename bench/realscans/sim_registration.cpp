@@ -136,8 +136,10 @@ int main(int argc, char** argv) {
       for (std::size_t k = 0; k < clouds[i].size(); k += stride)
         pts.push_back(mis[i].inverse() * clouds[i].positions[k]);
       const Vec3 sensor = mis[i].inverse() * sensors[i];
-      std::vector<Vec3> proj;
-      registration::estimate_normals(pts, sensor, normal_k > 0 ? normal_k : 20, &proj);
+      registration::SurfaceFitOptions fo;
+      fo.k = normal_k > 0 ? normal_k : 20;
+      fo.quadric = false;  // the plane fit this diagnostic has always shown
+      const std::vector<Vec3> proj = registration::fit_scan_surface(pts, sensor, fo).projected;
       auto offset = [&](const std::vector<Vec3>& q) {
         double s = 0, a = 0;
         for (std::size_t k = 0; k < q.size(); k += 3) {

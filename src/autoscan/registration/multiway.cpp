@@ -47,9 +47,8 @@ struct Prepared {
   std::unique_ptr<NearestNeighbors> tree;
   double spacing = 0.0;  // median nearest-neighbour distance within the target
   double range = 0.0;    // distance from the sensor to the scan's centroid
-  int neighbors = 0;     // of the local surface fit
-  double noise = 0.0;    // estimated scatter of the scan's points about their surface
   Vec3 sensor = Vec3::Zero();
+  std::shared_ptr<const PreparedScan> fit;  // what it was made from (surface fits, k, noise)
 };
 
 // The part of a scan's preparation that depends only on the scan (cached by callers across calls).
@@ -93,11 +92,11 @@ PreparedScan fit_scan(const PointCloud& scan, const Vec3& sensor, const Multiway
   return p;
 }
 
-Prepared prepare(const PreparedScan& f, const Vec3& sensor, const Vec3& c, const MultiwayOptions& o) {
+Prepared prepare(std::shared_ptr<const PreparedScan> fit, const Vec3& sensor, const Vec3& c, const MultiwayOptions& o) {
+  const PreparedScan& f = *fit;
   Prepared p;
+  p.fit = std::move(fit);
   p.sensor = sensor - c;
-  p.neighbors = f.neighbors;
-  p.noise = f.noise;
   p.target.positions.reserve(f.positions.size());
   for (const auto& q : f.positions) p.target.positions.push_back(q - c);
   p.target.normals = f.normals;
@@ -399,16 +398,6 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
   return fit;
 }
 
-std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k,
-                                   std::vector<Vec3>* projected) {
-  SurfaceFitOptions o;
-  o.k = k;
-  o.quadric = false;
-  SurfaceFit fit = fit_scan_surface(points, sensor, o);
-  if (projected) *projected = std::move(fit.projected);
-  return std::move(fit.normals);
-}
-
 MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
                                  std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
                                  const MultiwayOptions& o, ProgressCallback progress,
@@ -484,7 +473,7 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     std::shared_ptr<const PreparedScan> f = cache ? (*cache)[i] : nullptr;
     if (!f) f = std::make_shared<const PreparedScan>(fit_scan(scans[i], sensors[i], o));
     if (cache) (*cache)[i] = f;
-    prep[i] = prepare(*f, sensors[i], c, o);
+    prep[i] = prepare(f, sensors[i], c, o);
   });
   std::vector<Eigen::Isometry3d> X(n);
   for (std::size_t i = 0; i < n; ++i) X[i] = to_centred(res.corrections[i], c);
@@ -548,8 +537,8 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     res.scans[i].free = free[i] != 0;
     res.scans[i].spacing = prep[i].spacing;
     res.scans[i].points_used = prep[i].target.size();
-    res.scans[i].neighbors = prep[i].neighbors;
-    res.scans[i].noise = prep[i].noise;
+    res.scans[i].neighbors = prep[i].fit ? prep[i].fit->neighbors : 0;
+    res.scans[i].noise = prep[i].fit ? prep[i].fit->noise : 0.0;
   }
   if (!pairs.empty()) res.overlap_distance = pair_distance(pairs.front().first, pairs.front().second);
 

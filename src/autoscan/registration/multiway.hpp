@@ -176,9 +176,4 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
 
 nlohmann::json to_json(const MultiwayResult& r);
 
-/// PCA normals (k nearest neighbours) of `points`, each turned towards `sensor`; `projected` (if
-/// given) receives each point projected onto its fitted plane (a denoised copy).
-std::vector<Vec3> estimate_normals(std::span<const Vec3> points, const Vec3& sensor, int k,
-                                   std::vector<Vec3>* projected = nullptr);
-
 }  // namespace autoscan::registration
