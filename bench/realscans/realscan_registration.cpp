@@ -176,6 +176,9 @@ int main(int argc, char** argv) {
   spec.near = 0.5 * sensor_distance;
   spec.far = 1.5 * sensor_distance;
   spec.noise.magnitude = 0.0;
+  // The scanner's declared depth model (its JSON's noise.depth_incidence_gain): the session weighs
+  // the registration's points by it. --gain overrides the default 1.
+  if (power >= 0) spec.noise.depth_incidence_gain = power;
   Rig rig;
   session::SessionOptions opt;
   opt.max_iterations = 1;
@@ -187,7 +190,6 @@ int main(int argc, char** argv) {
   if (trim > 0) opt.multiway.icp.trim_fraction = trim;
   if (rounds > 0) opt.multiway.rounds = rounds;
   if (incidence > 0) opt.multiway.max_incidence_deg = incidence;
-  if (power >= 0) opt.multiway.incidence_gain = power;
   if (disagree > 0) opt.multiway.max_disagreement = disagree;
   if (min_overlap > 0) opt.multiway.min_overlap = min_overlap;
   if (samples > 0) {

@@ -204,6 +204,30 @@ TEST(Multiway, AlignsScansWithInjectedRobotErrors) {
   EXPECT_EQ(j.at("scans").size(), s.scans.size());
 }
 
+// max_pairs_per_scan bounds the pairs each free scan takes part in (the cost of an iteration must
+// not grow with the number of scans): with 2 per scan, 8 free scans use at most 16 pairs, each
+// scan's kept partners are its largest overlaps, and the scans are still aligned.
+TEST(Multiway, CapsThePairsPerScanAndStillAligns) {
+  const Scene s = make_scene(8, 0.006, 1.0, 3);
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.006;
+  o.robot_rotation_sigma_deg = 1.0;
+  o.max_pairs_per_scan = 0;
+  const auto all = register_multiway(s.scans, s.sensors, {}, {}, o);
+  o.max_pairs_per_scan = 2;
+  const auto capped = register_multiway(s.scans, s.sensors, {}, {}, o);
+  EXPECT_EQ(all.pairs_capped, 0u);
+  EXPECT_GT(capped.pairs_capped, 0u);
+  EXPECT_LE(capped.pairs.size(), 16u);
+  EXPECT_EQ(capped.pairs.size() + capped.pairs_capped, all.pairs.size());
+  std::vector<int> degree(s.scans.size(), 0);
+  for (const auto& p : capped.pairs) ++degree[p.i], ++degree[p.j];
+  for (int d : degree) EXPECT_GE(d, 1);
+  const auto after = per_scan_error(s, capped.corrections);
+  for (std::size_t k = 0; k < after.size(); ++k) EXPECT_LT(after[k], 0.002) << "scan " << k;
+  EXPECT_EQ(to_json(capped).at("pairs_capped").get<std::size_t>(), capped.pairs_capped);
+}
+
 TEST(Multiway, FlagsAScanFarBeyondTheDeclaredAccuracy) {
   Scene s = make_scene(8, 0.003, 0.5, 5);
   // Scan 3's reported pose is 12 sigma off: a shift of 3.6 cm.

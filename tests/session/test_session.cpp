@@ -659,6 +659,22 @@ TEST(GlobalRegistration, AlignsTheBlindScansBeforeTheFirstModel) {
   fs::remove_all(dir);
 }
 
+// The points' quality weights follow the scanner's declared depth model (its JSON's
+// noise.depth_incidence_gain), not a session option of their own.
+TEST(GlobalRegistration, WeighsPointsByTheScannersDeclaredIncidenceGain) {
+  const auto dir = fresh_dir("global_gain");
+  ScannerSpec spec;
+  spec.noise.depth_incidence_gain = 7.0;
+  auto s = Session::create(dir, spec, Rig{}, global_options());
+  s.set_reconstructor(scripted_reconstructor({0.5}));
+  add_misplaced_blind_scans(s);
+  s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+  EXPECT_DOUBLE_EQ(s.iterations()[0].registration.at("incidence_gain").get<double>(), 7.0);
+  EXPECT_THROW(session::session_options_from_json(nlohmann::json::parse(R"({"multiway": {"incidence_gain": 10}})")),
+               InputError);
+  fs::remove_all(dir);
+}
+
 TEST(GlobalRegistration, KeepsAScanFarBeyondTheAccuracyOutOfTheModel) {
   const auto dir = fresh_dir("global_outlier");
   std::size_t model_size = 0;

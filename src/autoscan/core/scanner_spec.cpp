@@ -1,5 +1,6 @@
 #include "autoscan/core/scanner_spec.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 #include <limits>
@@ -17,6 +18,13 @@ namespace autoscan {
 double ScannerSpec::vertical_fov_deg() const {
   const double h = std::tan(fov_deg * std::numbers::pi / 360.0) * height / width;
   return 2.0 * std::atan(h) * 180.0 / std::numbers::pi;
+}
+
+double ScannerSpec::relative_depth_sigma(double distance, double cos_incidence) const {
+  const double c = std::clamp(std::isfinite(cos_incidence) ? std::abs(cos_incidence) : 1.0, 0.05, 1.0);
+  const double tan_i = std::sqrt(std::max(0.0, 1.0 - c * c)) / c;
+  const double d = std::isfinite(distance) && distance > 0.0 ? distance / near : 1.0;
+  return std::pow(d, noise.depth_distance_power) * (1.0 + noise.depth_incidence_gain * tan_i);
 }
 
 void ScannerSpec::validate(const std::string& what) const {

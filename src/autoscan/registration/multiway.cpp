@@ -271,6 +271,8 @@ void MultiwayOptions::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(std::isfinite(incidence_gain) && incidence_gain >= 0.0,
                    "{}: incidence_gain must be finite and >= 0 (got {})", what, incidence_gain);
   AUTOSCAN_REQUIRE(rounds >= 1 && rounds <= 20, "{}: rounds must be in [1, 20] (got {})", what, rounds);
+  AUTOSCAN_REQUIRE(max_pairs_per_scan >= 0 && max_pairs_per_scan <= 1000,
+                   "{}: max_pairs_per_scan must be in [0, 1000] (got {})", what, max_pairs_per_scan);
   AUTOSCAN_REQUIRE(std::isfinite(max_disagreement) && max_disagreement > 0.0,
                    "{}: max_disagreement must be finite and positive (got {})", what, max_disagreement);
   AUTOSCAN_REQUIRE(std::isfinite(outlier_sigma) && outlier_sigma > 0.0,
@@ -533,6 +535,28 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
   std::vector<std::pair<std::size_t, std::size_t>> pairs(pair_set.begin(), pair_set.end());
   // Pairs between two anchors constrain nothing that moves.
   std::erase_if(pairs, [&](const auto& p) { return !free[p.first] && !free[p.second]; });
+  if (o.max_pairs_per_scan > 0) {
+    // Each free scan keeps its partners of largest overlap (ties: the lower index); a pair stays when
+    // one of its free scans keeps it.
+    const auto k = static_cast<std::size_t>(o.max_pairs_per_scan);
+    std::vector<std::vector<std::size_t>> of(n);  // indices into pairs
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      if (free[pairs[p].first]) of[pairs[p].first].push_back(p);
+      if (free[pairs[p].second]) of[pairs[p].second].push_back(p);
+    }
+    std::vector<char> keep(pairs.size(), 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      auto& list = of[i];
+      std::stable_sort(list.begin(), list.end(),
+                       [&](std::size_t a, std::size_t b) { return overlap_of.at(pairs[a]) > overlap_of.at(pairs[b]); });
+      for (std::size_t t = 0; t < list.size() && t < k; ++t) keep[list[t]] = 1;
+    }
+    std::size_t w = 0;
+    for (std::size_t p = 0; p < pairs.size(); ++p)
+      if (keep[p]) pairs[w++] = pairs[p];
+    res.pairs_capped = pairs.size() - w;
+    pairs.resize(w);
+  }
   for (std::size_t i = 0; i < n; ++i) {
     res.scans[i].free = free[i] != 0;
     res.scans[i].spacing = prep[i].spacing;
@@ -541,6 +565,7 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     res.scans[i].noise = prep[i].fit ? prep[i].fit->noise : 0.0;
   }
   if (!pairs.empty()) res.overlap_distance = pair_distance(pairs.front().first, pairs.front().second);
+  res.incidence_gain = o.incidence_gain;
 
   std::vector<PairWork> work(pairs.size());
   std::vector<double> pair_dist(pairs.size());
@@ -697,8 +722,10 @@ nlohmann::json to_json(const MultiwayResult& r) {
   return {{"pairs_used", used},
           {"pairs_dropped", r.pairs.size() - used},
           {"pairs_tested", r.pairs_tested},
+          {"pairs_capped", r.pairs_capped},
           {"rounds", r.rounds},
           {"overlap_distance", r.overlap_distance},
+          {"incidence_gain", r.incidence_gain},
           {"seconds", r.seconds},
           {"seconds_pairs", r.seconds_pairs},
           {"seconds_graph", r.seconds_graph},

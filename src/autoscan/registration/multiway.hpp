@@ -88,8 +88,14 @@ struct MultiwayOptions {
   /// scanner noise model's incidence term, NoiseSpec::depth_incidence_gain), a pair of points weighs
   /// 1/(σ_a² + σ_b²). A range scanner's depth is least accurate, and biased, at grazing angles
   /// (docs/registration.md). Default 1: the virtual scanner's model; the Cyberware scans of
-  /// dragon_stand want about 10.
+  /// dragon_stand want about 10. A session sets it from its scanner JSON (noise.depth_incidence_gain).
   double incidence_gain = 1.0;
+  /// At most this many pairs per free scan: its partners of largest overlap (0 = all). A scan added
+  /// late overlaps more and more of the earlier ones; registering it to all of them makes an
+  /// iteration's cost grow with the number of scans (measured on armadillo at noise 0.5, 40 views:
+  /// 47, 70, 76, 120 pairs in iterations 1-4, registration half of the loop's time). Its best few
+  /// partners hold it as firmly (docs/registration.md, "Cost").
+  int max_pairs_per_scan = 6;
   int rounds = 3;                 ///< pairwise ICP + graph solve rounds
   double max_disagreement = 3.0;  ///< drop a pair whose implied displacement exceeds this × its RMS
   double outlier_sigma = 5.0;     ///< flag a scan whose correction is beyond this many σ (Mahalanobis)
@@ -141,8 +147,10 @@ struct MultiwayResult {
   std::vector<MultiwayScanReport> scans;
   std::vector<MultiwayPair> pairs;  ///< of the last round
   std::size_t pairs_tested = 0;     ///< overlap tests run (all rounds)
+  std::size_t pairs_capped = 0;     ///< overlapping pairs left out by max_pairs_per_scan
   int rounds = 0;
   double overlap_distance = 0.0;  ///< of the first round
+  double incidence_gain = 0.0;    ///< the depth model's incidence term the points were weighed by
   double seconds = 0.0;
   double seconds_pairs = 0.0, seconds_graph = 0.0;
 };

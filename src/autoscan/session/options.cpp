@@ -154,7 +154,8 @@ void fields(registration::MultiwayOptions& o, V& v) {
   v("normal_k", o.normal_k);
   v("surface", o.surface);
   v("max_incidence_deg", o.max_incidence_deg);
-  v("incidence_gain", o.incidence_gain);
+  // incidence_gain: not a session option; the session takes the scanner's noise.depth_incidence_gain.
+  v("max_pairs_per_scan", o.max_pairs_per_scan);
   v("rounds", o.rounds);
   v("max_disagreement", o.max_disagreement);
   v("outlier_sigma", o.outlier_sigma);
@@ -181,6 +182,8 @@ void fields(SessionOptions& o, V& v) {
   v("registration_max_rotation_deg", o.registration_max_rotation_deg);
   v("selective_insertion", o.selective_insertion);
   v("rho", o.rho);
+  v("quality_weights", o.quality_weights);
+  v("quality_insertion_ratio", o.quality_insertion_ratio);
   v("stop_threshold", o.stop_threshold);
   v("stop_when_confidence_falls", o.stop_when_confidence_falls);
   v("max_iterations", o.max_iterations);
@@ -309,6 +312,9 @@ void SessionOptions::validate() const {
   AUTOSCAN_REQUIRE(!planner.empty(), "options: planner must not be empty");
   AUTOSCAN_REQUIRE(planner_params.is_object(), "options: planner_params must be a JSON object");
   AUTOSCAN_REQUIRE(std::isfinite(rho) && rho >= 0.0, "options: rho (Eq. 6) must be >= 0 (got {})", rho);
+  AUTOSCAN_REQUIRE(
+      std::isfinite(quality_insertion_ratio) && (quality_insertion_ratio == 0.0 || quality_insertion_ratio >= 1.0),
+      "options: quality_insertion_ratio must be 0 (off) or >= 1 (got {})", quality_insertion_ratio);
   AUTOSCAN_REQUIRE(std::isfinite(registration_min_improvement) && registration_min_improvement >= 0.0 &&
                        registration_min_improvement < 1.0,
                    "options: registration_min_improvement must be in [0, 1) (got {})", registration_min_improvement);

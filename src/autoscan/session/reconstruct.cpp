@@ -1,10 +1,13 @@
 #include "autoscan/session/reconstruct.hpp"
 
+#include <algorithm>
+
 #include "autoscan/confidence/confidence.hpp"
 #include "autoscan/consolidate/consolidate.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/poisson/poisson.hpp"
+#include "autoscan/session/quality.hpp"
 
 namespace autoscan::session {
 
@@ -25,9 +28,33 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
                                   {"normals", consolidate::to_string(cons.normals.orientation)}};
   for (const auto& t : cons.timings) r.diagnostics["consolidate"]["seconds"][t.step] = t.seconds;
 
+  // Quality-weighted fusion (docs/fusion.md): each consolidated sample carries the precision-weighted
+  // σ of the raw points it stands for, and weighs the Poisson solve by its precision.
+  poisson::PoissonOptions po = options.poisson;
+  const auto* raw_sigma = raw.scalars.find(kDepthSigmaColumn);
+  if (raw_sigma && raw_sigma->size() == raw.size() && !r.consolidated.empty()) {
+    clock.reset();
+    // The raw model can hold millions of points; a stride sample of at most 400k stands for it.
+    const std::size_t stride = std::max<std::size_t>(1, (raw.size() + 399999) / 400000);
+    std::vector<Vec3> rp;
+    std::vector<double> rs;
+    rp.reserve(raw.size() / stride + 1);
+    rs.reserve(raw.size() / stride + 1);
+    for (std::size_t i = 0; i < raw.size(); i += stride) {
+      rp.push_back(raw.positions[i]);
+      rs.push_back((*raw_sigma)[i]);
+    }
+    auto sigma = sample_depth_sigma(r.consolidated.positions, rp, rs);
+    if (options.quality_weights && po.weight_scalar.empty()) {
+      r.consolidated.scalars.set(kQualityWeightColumn, precision_weights(sigma));
+      po.weight_scalar = kQualityWeightColumn;
+    }
+    r.consolidated.scalars.set(kDepthSigmaColumn, std::move(sigma));
+    r.seconds["quality"] = clock.seconds();
+  }
+
   // §4.1: screened Poisson, the evaluable field and its iso-surface.
   clock.reset();
-  poisson::PoissonOptions po = options.poisson;
   po.extract_mesh = true;
   poisson::PoissonResult pr = poisson::reconstruct(r.consolidated, po, progress);
   r.seconds["poisson"] = clock.seconds();

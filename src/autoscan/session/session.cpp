@@ -18,6 +18,7 @@
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/registration/nearest.hpp"
+#include "autoscan/session/quality.hpp"
 
 namespace autoscan::session {
 
@@ -158,6 +159,13 @@ PointCloud model_part(const PointCloud& registered, const std::vector<char>& kee
   out.scalars.set("sensor_x", std::move(sx));
   out.scalars.set("sensor_y", std::move(sy));
   out.scalars.set("sensor_z", std::move(sz));
+  if (const auto* q = registered.scalars.find(kDepthSigmaColumn)) {
+    std::vector<double> sigma;
+    sigma.reserve(out.positions.size());
+    for (std::size_t i = 0; i < registered.size(); ++i)
+      if (keep[i]) sigma.push_back((*q)[i]);
+    out.scalars.set(kDepthSigmaColumn, std::move(sigma));
+  }
   return out;
 }
 
@@ -215,6 +223,7 @@ json to_json(const ScanRecord& r) {
             {"file", "scans/" + scan_stem(r.id) + ".ply"},
             {"points", r.points},
             {"inserted", r.inserted},
+            {"quality_refused", r.quality_refused},
             {"model_iteration", r.model_iteration},
             {"pose", to_json(r.reported_pose)},
             {"registered_pose", to_json(r.registered_pose)},
@@ -283,6 +292,9 @@ ScanRecord scan_from_json(const json& j, const std::string& what, int expected_i
   r.points = static_cast<std::size_t>(integer_in(member(j, "points", what), what + ".points", 0, kMaxCount));
   r.inserted = static_cast<std::size_t>(
       integer_in(member(j, "inserted", what), what + ".inserted", 0, static_cast<long long>(r.points)));
+  if (j.contains("quality_refused"))  // absent in sessions written before quality-weighted fusion
+    r.quality_refused = static_cast<std::size_t>(
+        integer_in(j.at("quality_refused"), what + ".quality_refused", 0, static_cast<long long>(r.points)));
   r.model_iteration =
       static_cast<int>(integer_in(member(j, "model_iteration", what), what + ".model_iteration", -1, iterations - 1));
   const json& secs = member(j, "seconds", what);
@@ -483,6 +495,7 @@ struct Session::Impl {
   std::vector<double> target_weight;  // f of the iso-point nearest to each target point
   std::vector<Vec3> iso_positions;
   std::vector<double> iso_f;
+  QualityGate quality_gate;  // the consolidated surface with its σ (insertion by quality)
 
   ~Impl() {
     if (lock_fd >= 0) ::close(lock_fd);
@@ -553,6 +566,9 @@ struct Session::Impl {
     target = PointCloud{};
     target.positions = consolidated.positions;
     target.normals = consolidated.normals;
+    const auto* tsigma = consolidated.scalars.find(kDepthSigmaColumn);
+    quality_gate =
+        tsigma && tsigma->size() == consolidated.size() ? QualityGate(consolidated.positions, *tsigma) : QualityGate();
     iso_positions = iso.positions;
     const auto* f = iso.scalars.find("f");
     iso_f = f ? *f : std::vector<double>(iso.size(), 0.0);
@@ -631,6 +647,15 @@ struct Session::Impl {
     model_src_sensor = std::move(b);
   }
 
+  // The session's multiway options: the depth uncertainty that weighs the points is the scanner's
+  // model (docs/registration.md, "Quality weighting"): its incidence term comes from the scanner JSON
+  // (`noise.depth_incidence_gain`), not from a session option.
+  registration::MultiwayOptions multiway_options() const {
+    auto m = options.multiway;
+    m.incidence_gain = scanner.noise.depth_incidence_gain;
+    return m;
+  }
+
   // The global multi-view registration of an iteration (docs/registration.md): the scans added since
   // the last iteration are freed, with the scans they overlap; the others anchor them.
   void global_registration(IterationRecord& it) {
@@ -647,8 +672,8 @@ struct Session::Impl {
       free[static_cast<std::size_t>(i)] = i >= first && !r.excluded ? 1 : 0;
     }
     reg_prepared.resize(reg_samples.size());
-    const auto res =
-        registration::register_multiway(reg_samples, sensors, initial, free, options.multiway, progress, &reg_prepared);
+    const auto res = registration::register_multiway(reg_samples, sensors, initial, free, multiway_options(), progress,
+                                                     &reg_prepared);
     int moved = 0, excluded = 0;
     std::vector<char> moved_flags(scans.size(), 0);
     for (int i = 0; i < n; ++i) {
@@ -727,6 +752,11 @@ struct Session::Impl {
       keep = selective_insertion_mask(registered.positions, iso_positions, iso_f, options.rho, rng);
     } else {
       keep.assign(registered.size(), 1);
+    }
+    rec.quality_refused = 0;
+    if (options.quality_insertion_ratio > 0.0 && has_model()) {
+      if (const auto* q = registered.scalars.find(kDepthSigmaColumn))
+        rec.quality_refused = quality_gate.apply(registered.positions, *q, options.quality_insertion_ratio, keep);
     }
     rec.inserted = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
     rec.seconds_insertion = clock.seconds();
@@ -829,6 +859,8 @@ Session Session::open(const fs::path& dir) {
     }
     AUTOSCAN_REQUIRE(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1)) == rec.inserted,
                      "{}: insertion flags disagree with session.json", file.string());
+    // As add_scan computed it (a session written before quality-weighted fusion has no column).
+    if (!scan.empty()) scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, impl->scanner));
     PointCloud registered = scan;
     apply_transform(registered, rec.correction);
     if (impl->planner) {
@@ -903,6 +935,8 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
     scan.scalars.set("sensor_y", std::vector<double>(scan.size(), s.y()));
     scan.scalars.set("sensor_z", std::vector<double>(scan.size(), s.z()));
   }
+  // The depth uncertainty the scanner's model predicts for each point (docs/fusion.md).
+  scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, m.scanner));
   std::vector<char> keep;
   PointCloud registered = m.register_and_select(scan, rec, keep);
   rec.added_correction = rec.correction;

@@ -47,6 +47,9 @@ struct ScanRecord {
   int id = 0;                ///< scans/scan_NNNN.ply
   std::size_t points = 0;    ///< points received
   std::size_t inserted = 0;  ///< points inserted into the model (Eq. 6)
+  /// points not inserted because the model's surface there was measured better
+  /// (SessionOptions::quality_insertion_ratio, docs/fusion.md)
+  std::size_t quality_refused = 0;
   int model_iteration = -1;  ///< iteration whose model the scan was registered to (-1: none yet)
   Pose reported_pose;        ///< as the robot reported it
   Pose registered_pose;      ///< after the registration correction
