@@ -29,8 +29,8 @@
 #include "autoscan/eval/mesh_distance.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/registration/icp.hpp"
-#include "autoscan/registration/nearest.hpp"
 #include "autoscan/session/session.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 using namespace autoscan;
 namespace fs = std::filesystem;
@@ -307,7 +307,7 @@ int main(int argc, char** argv) {
         const std::size_t j = (i + 1) % scans.size();
         std::vector<Vec3> pj;
         for (const auto& p : scans[j].truth.positions) pj.push_back(place(j, p));
-        const registration::NearestNeighbors nn(pj);
+        const spatial::KdTree nn(pj);
         std::vector<double> d;
         for (std::size_t k = 0; k < scans[i].truth.size(); k += 5) {
           double d2 = 0;

@@ -734,7 +734,7 @@ optimal distance. options: {views, elevations_deg, distance, azimuth_offset_deg}
             });
             return take_column(std::move(in)).attr("astype")("bool");
           },
-          "points"_a, "True for each (N, 3) point inside the (closed) mesh.")
+          "points"_a, "True for each (N, 3) point inside the mesh (outward faces; small holes tolerated).")
       .def_property_readonly("triangle_count", &scanner::VirtualScanner::triangle_count)
       .def_property_readonly("spec",
                              [](const scanner::VirtualScanner& vs) { return from_json(autoscan::to_json(vs.spec())); });

@@ -7,7 +7,6 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/registration/icp.hpp"
-#include "autoscan/registration/nearest.hpp"
 
 using namespace autoscan;
 using namespace autoscan::registration;
@@ -74,25 +73,6 @@ PointCloud partial(const PointCloud& c, const Vec3& view, const Eigen::Isometry3
 }
 
 }  // namespace
-
-TEST(Nearest, MatchesBruteForce) {
-  Rng rng(3);
-  std::vector<Vec3> pts(2000), qs(300);
-  for (auto& p : pts) p = Vec3(rng.uniform(), rng.uniform(), rng.uniform());
-  for (auto& q : qs) q = Vec3(rng.uniform(-0.2, 1.2), rng.uniform(), rng.uniform());
-  NearestNeighbors nn(pts);
-  std::vector<std::size_t> idx(qs.size());
-  std::vector<double> d2(qs.size());
-  nn.nearest(qs, idx, d2);
-  for (std::size_t i = 0; i < qs.size(); ++i) {
-    double best = 1e300;
-    for (const auto& p : pts) best = std::min(best, (p - qs[i]).squaredNorm());
-    EXPECT_DOUBLE_EQ(d2[i], best);
-    EXPECT_DOUBLE_EQ((pts[idx[i]] - qs[i]).squaredNorm(), best);
-  }
-  NearestNeighbors empty(std::vector<Vec3>{});
-  EXPECT_EQ(empty.nearest(Vec3::Zero()), 0u);
-}
 
 TEST(Icp, RecoversInjectedPoseErrorOnPartialScan) {
   const PointCloud model = sample(30000, 1);

@@ -9,10 +9,10 @@
 #include <cmath>
 #include <limits>
 
-#include "autoscan/confidence/kdtree.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/colormap.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::confidence {
 
@@ -71,12 +71,12 @@ TriangleMesh color_mesh(const TriangleMesh& mesh, const PointCloud& iso_points, 
   const std::size_t nv = out.vertices.size();
   std::vector<double> vals[3];
   for (auto& v : vals) v.assign(nv, 0.0);
-  const detail::KdTree tree(iso_points.positions);
+  const spatial::KdTree tree(iso_points.positions);
   const std::size_t kk = std::min<std::size_t>(static_cast<std::size_t>(neighbours), iso_points.size());
   const double diag = iso_points.bounds().diagonal();
   const double eps2 = std::max(1e-24, (1e-6 * diag) * (1e-6 * diag));  // keeps 1/d² finite at d = 0
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 512), [&](const tbb::blocked_range<std::size_t>& r) {
-    std::vector<detail::KdIndex> idx(kk);
+    std::vector<spatial::KdTree::Index> idx(kk);
     std::vector<double> d2(kk);
     for (std::size_t v = r.begin(); v < r.end(); ++v) {
       const std::size_t found = tree.knn(out.vertices[v], kk, idx.data(), d2.data());
@@ -98,7 +98,7 @@ TriangleMesh color_mesh(const TriangleMesh& mesh, const PointCloud& iso_points, 
 struct ConfidenceEvaluator::Impl {
   ConfidenceOptions options;
   std::vector<Vec3> raw;
-  std::unique_ptr<detail::KdTree> tree;  // refers to `raw`: Impl is never copied or moved, only its pointer
+  std::unique_ptr<spatial::KdTree> tree;  // refers to `raw`: Impl is never copied or moved, only its pointer
 };
 
 ConfidenceEvaluator::ConfidenceEvaluator(const PointCloud& raw, ConfidenceOptions options)
@@ -111,13 +111,13 @@ ConfidenceEvaluator::ConfidenceEvaluator(std::vector<Vec3> raw_positions, Confid
   AUTOSCAN_REQUIRE(raw_positions.size() >= static_cast<std::size_t>(options.k),
                    "confidence: k = {} (K of Eq. 2) is larger than the raw point cloud ({} points)", options.k,
                    raw_positions.size());
-  AUTOSCAN_REQUIRE(raw_positions.size() < std::numeric_limits<detail::KdIndex>::max(),
+  AUTOSCAN_REQUIRE(raw_positions.size() < std::numeric_limits<spatial::KdTree::Index>::max(),
                    "confidence: too many raw points ({})", raw_positions.size());
   for (std::size_t i = 0; i < raw_positions.size(); ++i)
     AUTOSCAN_REQUIRE(raw_positions[i].allFinite(), "confidence: raw point {} has a non-finite coordinate", i);
   impl_->options = std::move(options);
   impl_->raw = std::move(raw_positions);
-  impl_->tree = std::make_unique<detail::KdTree>(impl_->raw);
+  impl_->tree = std::make_unique<spatial::KdTree>(impl_->raw);
 }
 
 ConfidenceEvaluator::~ConfidenceEvaluator() = default;
@@ -143,7 +143,7 @@ std::vector<double> ConfidenceEvaluator::smoothness(std::span<const Vec3> points
   Progress progress(o.progress, "confidence");
   std::atomic<std::size_t> done{0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& r) {
-    std::vector<detail::KdIndex> idx(k);
+    std::vector<spatial::KdTree::Index> idx(k);
     std::vector<double> d2(k);
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
       const Vec3& s = points[i];

@@ -10,9 +10,9 @@
 #include <queue>
 
 #include "autoscan/confidence/confidence.hpp"
-#include "autoscan/confidence/kdtree.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::confidence {
 
@@ -70,10 +70,10 @@ std::vector<std::size_t> eliminate(const std::vector<Vec3>& cand, std::size_t n,
     return std::pow(1.0 - dd / two_rmax, alpha);
   };
 
-  detail::KdTree tree(cand);
-  std::vector<std::vector<std::pair<detail::KdIndex, double>>> nbrs(m);
+  const spatial::KdTree tree(cand);
+  std::vector<std::vector<std::pair<spatial::KdTree::Index, double>>> nbrs(m);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 256), [&](const tbb::blocked_range<std::size_t>& r) {
-    std::vector<std::pair<detail::KdIndex, double>> found;
+    std::vector<std::pair<spatial::KdTree::Index, double>> found;
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
       tree.radius(cand[i], two_rmax, found);
       auto& out = nbrs[i];

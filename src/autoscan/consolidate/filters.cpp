@@ -10,6 +10,7 @@
 #include "autoscan/consolidate/consolidate.hpp"
 #include "autoscan/consolidate/knn.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::consolidate {
 namespace {
@@ -95,7 +96,7 @@ std::size_t remove_sparse_points(PointCloud& cloud, const RadiusFilterOptions& o
   AUTOSCAN_REQUIRE(o.min_neighbors >= 1, "radius filter: min_neighbors must be at least 1 (got {})", o.min_neighbors);
   validate_cloud(cloud, 1, "radius filter");
   Progress prog(std::move(progress), "radius filter");
-  const KnnIndex index(cloud.positions);
+  const spatial::KdTree index(cloud.positions, kKdLeafSize);
   std::vector<char> ok(cloud.size(), 0);
   parallel_blocks(cloud.size(), &prog, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i)

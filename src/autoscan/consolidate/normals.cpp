@@ -9,6 +9,7 @@
 #include "autoscan/consolidate/consolidate.hpp"
 #include "autoscan/consolidate/knn.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::consolidate {
 namespace {
@@ -41,8 +42,8 @@ Vec3 plane_normal(const std::vector<Vec3>& pts, const Index* idx, std::size_t m,
 
 /// The k nearest points of each point (the point included), k per point; with `fit`, also the PCA
 /// normals over them (unoriented) in cloud.normals.
-std::vector<std::uint32_t> neighbours_and_normals(PointCloud& cloud, const KnnIndex& index, std::size_t k, bool fit,
-                                                  Progress& prog) {
+std::vector<std::uint32_t> neighbours_and_normals(PointCloud& cloud, const spatial::KdTree& index, std::size_t k,
+                                                  bool fit, Progress& prog) {
   AUTOSCAN_REQUIRE(cloud.size() < (std::size_t{1} << 32), "normals: {} points is more than supported", cloud.size());
   if (fit) cloud.normals.assign(cloud.size(), Vec3::UnitZ());
   std::vector<std::uint32_t> nbr(cloud.size() * k);
@@ -64,7 +65,8 @@ std::vector<std::uint32_t> neighbours_and_normals(PointCloud& cloud, const KnnIn
 /// share k-NN neighbourhoods, which tilts the first fit; once oriented, their normals are opposite and
 /// this pass fits each sheet alone. Points whose k neighbours all agree keep the first fit (it is the
 /// same fit). Keeps each normal's orientation.
-void refine_by_sheet(PointCloud& cloud, const KnnIndex& index, std::size_t k, const std::vector<std::uint32_t>& nbr) {
+void refine_by_sheet(PointCloud& cloud, const spatial::KdTree& index, std::size_t k,
+                     const std::vector<std::uint32_t>& nbr) {
   const std::vector<Vec3> first = cloud.normals;
   const std::size_t m2 = std::min(2 * k, cloud.size());
   parallel_blocks(cloud.size(), nullptr, [&](std::size_t b, std::size_t e) {
@@ -119,7 +121,7 @@ namespace {
 /// the topmost point's normal points up); each further component of the graph starts at its lowest
 /// index, oriented away from `centroid`. Ties are broken by index: deterministic. Returns the number of
 /// points outside the first component.
-std::size_t mst_propagate(const std::vector<Vec3>& pts, std::vector<Vec3>& normals, const KnnIndex& index,
+std::size_t mst_propagate(const std::vector<Vec3>& pts, std::vector<Vec3>& normals, const spatial::KdTree& index,
                           std::size_t k, double crossing_weight, const Vec3& centroid) {
   const std::size_t n = pts.size();
   // Symmetric adjacency: i's k nearest other points, and every point that has i among its k nearest.
@@ -205,7 +207,7 @@ NormalReport orient_by_mst(PointCloud& cloud, int k, double crossing_weight) {
   Vec3 c = Vec3::Zero();
   for (const auto& p : cloud.positions) c += p;
   c /= static_cast<double>(cloud.size());
-  const KnnIndex index(cloud.positions);
+  const spatial::KdTree index(cloud.positions, kKdLeafSize);
   r.unreached = mst_propagate(cloud.positions, cloud.normals, index, static_cast<std::size_t>(k), crossing_weight, c);
   std::size_t outward = 0;
   for (std::size_t i = 0; i < cloud.size(); ++i)
@@ -231,7 +233,7 @@ NormalReport normals_step(PointCloud& cloud, const NormalOptions& o, ProgressCal
     AUTOSCAN_REQUIRE(has_sensors(cloud),
                      "normals: orientation 'sensor' needs the scalars sensor_x, sensor_y, sensor_z in the cloud");
   Progress prog(std::move(progress), "normals");
-  const KnnIndex index(cloud.positions);
+  const spatial::KdTree index(cloud.positions, kKdLeafSize);
   const auto k = static_cast<std::size_t>(o.k);
   const auto nbr = neighbours_and_normals(cloud, index, k, fit, prog);
   NormalReport r;

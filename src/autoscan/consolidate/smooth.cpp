@@ -9,6 +9,7 @@
 #include "autoscan/consolidate/consolidate.hpp"
 #include "autoscan/consolidate/knn.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::consolidate {
 namespace {
@@ -94,7 +95,7 @@ std::vector<Vec3> project_onto_jets(const std::vector<Vec3>& support, const std:
   AUTOSCAN_REQUIRE(k >= 3, "jet projection: k must be at least 3 (got {})", k);
   AUTOSCAN_REQUIRE(support.size() >= static_cast<std::size_t>(k),
                    "jet projection: k = {} needs at least {} support points, there are {}", k, k, support.size());
-  const KnnIndex index(support);
+  const spatial::KdTree index(support, kKdLeafSize);
   std::vector<Vec3> out(queries.size());
   if (normals) normals->assign(queries.size(), Vec3::UnitZ());
   const auto kk = static_cast<std::size_t>(k);

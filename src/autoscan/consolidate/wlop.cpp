@@ -7,6 +7,7 @@
 #include "autoscan/consolidate/knn.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::consolidate {
 
@@ -61,7 +62,7 @@ WlopReport apply_wlop(PointCloud& cloud, const WlopOptions& o, ProgressCallback 
   // Attributes of each new point: those of its nearest input point.
   std::vector<std::size_t> nearest(out.size());
   {
-    const KnnIndex index(cloud.positions);
+    const spatial::KdTree index(cloud.positions, kKdLeafSize);
     parallel_blocks(out.size(), nullptr, [&](std::size_t b, std::size_t e) {
       std::size_t idx = 0;
       double d2 = 0.0;

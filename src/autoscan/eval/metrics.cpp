@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <nanoflann.hpp>
 #include <sstream>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -16,6 +15,7 @@
 #include "autoscan/core/timer.hpp"
 #include "autoscan/eval/mesh_distance.hpp"
 #include "autoscan/shapes/sampling.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::eval {
 namespace {
@@ -44,30 +44,15 @@ double share_within(const std::vector<double>& d, double t) {
 
 double fscore(double p, double r) { return p + r > 0 ? 2 * p * r / (p + r) : 0.0; }
 
-// nanoflann adaptor over a vector of positions.
-struct Positions {
-  const std::vector<Vec3>& pts;
-  std::size_t kdtree_get_point_count() const { return pts.size(); }
-  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return pts[i][static_cast<int>(dim)]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
-  }
-};
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Positions>, Positions, 3>;
-
 // Distance from each query to its nearest point of `cloud` (kd-tree, parallel queries).
 std::vector<double> nearest_point_distances(const std::vector<Vec3>& cloud, const std::vector<Vec3>& queries) {
   std::vector<double> out(queries.size(), std::numeric_limits<double>::infinity());
   if (cloud.empty()) return out;
-  const Positions adaptor{cloud};
-  const KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  const spatial::KdTree tree(cloud, 16);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      std::uint32_t idx = 0;
       double d2 = 0;
-      const double q[3] = {queries[i].x(), queries[i].y(), queries[i].z()};
-      tree.knnSearch(q, 1, &idx, &d2);
+      tree.nearest(queries[i], &d2);
       out[i] = std::sqrt(d2);
     }
   });

@@ -7,7 +7,7 @@
 //  * completeness — truth samples → reconstruction surface;
 //  * precision / recall — share of reconstruction (truth) samples within τ of the other surface;
 //    F-score = 2PR / (P + R);
-//  * coverage     — share of truth samples within τ of any scanned point (kd-tree, nanoflann);
+//  * coverage     — share of truth samples within τ of any scanned point (spatial::KdTree);
 //  * histogram    — share of reconstruction samples per distance bin (Figure 9).
 // τ and the histogram range are given in units of the truth's bounding-box diagonal; distances in
 // results are absolute (the same numbers for truth meshes normalised to diagonal 1).

@@ -89,9 +89,9 @@ GridGeometry search_box(const std::vector<Vec3>& points, double far, int resolut
 
 namespace detail {
 
-std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const PointTree& tree,
-                                        const ScannerSpec& scanner, const RayScene& scene, const ImplicitField* field,
-                                        int block_size) {
+std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const spatial::KdTree& tree,
+                                        const ScannerSpec& scanner, const spatial::RayScene& scene,
+                                        const ImplicitField* field, int block_size) {
   const auto& dims = grid.dims;
   const std::size_t nvox = grid.size();
   std::vector<VoxelState> state(nvox, VoxelState::too_far);
@@ -110,7 +110,7 @@ std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData&
       const Vec3 c0 = grid.center(i0, j0, k0), c1 = grid.center(i1 - 1, j1 - 1, k1 - 1);
       const Vec3 bc = 0.5 * (c0 + c1);
       const double beta = 0.5 * (c1 - c0).norm();
-      const double D = tree.nearest_distance(bc);
+      const double D = nearest_distance(tree, bc);
       VoxelState all = VoxelState::candidate;
       bool decided = true;
       if (D - beta > far)
@@ -124,7 +124,7 @@ std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData&
           for (int i = i0; i < i1; ++i) {
             VoxelState s = all;
             if (!decided) {
-              const double d = tree.nearest_distance(grid.center(i, j, k));
+              const double d = nearest_distance(tree, grid.center(i, j, k));
               s = d < near ? VoxelState::too_close : (d > far ? VoxelState::too_far : VoxelState::candidate);
             }
             state[grid.index(i, j, k)] = s;
@@ -180,7 +180,7 @@ std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData&
 namespace {
 
 // ---- brute force -------------------------------------------------------------------------------
-void vvf_reference(ViewingField& vf, const IsoData& iso, const RayScene& scene, const Weights& W,
+void vvf_reference(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
                    NbvDiagnostics& diag) {
   const std::size_t nvox = vf.grid.size();
   std::atomic<std::size_t> pairs{0};
@@ -386,8 +386,8 @@ void log_bounds(const BoundSoA& S, std::size_t n, const Vec3& q, double beta, co
   }
 }
 
-void vvf_fast(ViewingField& vf, const IsoData& iso, const RayScene& scene, const Weights& W, const NbvOptions& o,
-              NbvDiagnostics& diag) {
+void vvf_fast(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
+              const NbvOptions& o, NbvDiagnostics& diag) {
   const double tol = o.tolerance;
   std::vector<int> active;
   for (std::size_t k = 0; k < iso.size(); ++k)
@@ -552,7 +552,7 @@ void vvf_fast(ViewingField& vf, const IsoData& iso, const RayScene& scene, const
 
 }  // namespace
 
-void compute_vvf(ViewingField& vf, const IsoData& iso, const RayScene& scene, const Weights& W,
+void compute_vvf(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
                  const NbvOptions& options, NbvDiagnostics& diag) {
   const std::size_t nvox = vf.grid.size();
   vf.g.assign(nvox, 0.0);

@@ -1,40 +1,23 @@
 #pragma once
-// Internals of the nbv stage shared by its .cpp files (not installed, not for other stages): the
-// Embree scene used for visibility and inside tests, the prepared iso-points, the pair weight of
-// Eq. 4, a kd-tree over points.
-#include <embree3/rtcore.h>
-
+// Internals of the nbv stage shared by its .cpp files (not for other stages): the ray scene of the
+// mesh, the prepared iso-points, the pair weight of Eq. 4, radius queries on the iso-points' kd-tree.
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
-#include <nanoflann.hpp>
+#include <utility>
 #include <vector>
 
 #include "autoscan/nbv/nbv.hpp"
+#include "autoscan/spatial/kdtree.hpp"
+#include "autoscan/spatial/ray_scene.hpp"
 
 namespace autoscan::nbv::detail {
 
-/// Embree 3 scene of a triangle mesh. Thread-safe queries after construction.
-class RayScene {
- public:
-  /// Throws InputError for an empty mesh, RuntimeError when Embree fails.
-  explicit RayScene(const TriangleMesh& mesh);
-  ~RayScene();
-  RayScene(const RayScene&) = delete;
-  RayScene& operator=(const RayScene&) = delete;
-
-  /// True when the open segment from `from` to `to` hits the mesh (w_v = 0).
-  bool occluded(const Vec3& from, const Vec3& to) const;
-  /// Inside test by ray parity: the first hit along each of three fixed directions faces away from
-  /// the ray (the ray leaves the solid); majority vote. A miss counts as outside.
-  bool inside(const Vec3& p) const;
-  std::size_t face_count() const { return face_normals_.size(); }
-
- private:
-  int first_hit(const Vec3& org, const Vec3& dir) const;
-  RTCDevice device_ = nullptr;
-  RTCScene scene_ = nullptr;
-  std::vector<Vec3> face_normals_;
-};
+/// The spatial floor's ray scene of the (Poisson) mesh, for visibility (w_v of Eq. 4) and the
+/// inside test of the candidate space; built with Embree's high quality (millions of rays per build).
+/// Throws InputError for a mesh without triangles or an invalid one.
+std::unique_ptr<spatial::RayScene> make_scene(const TriangleMesh& mesh);
 
 /// Iso-points prepared for Eq. 4: unit outward normals, a = 1 - f, and the visibility end points
 /// s + offset * n (just off the surface, outside).
@@ -84,58 +67,32 @@ inline double pair_weight(const Weights& W, const Vec3& v, const Vec3& s, const 
   return wd * wo;
 }
 
-/// nanoflann adaptor over a vector of points.
-struct PointsAdaptor {
-  const std::vector<Vec3>* pts;
-  std::size_t kdtree_get_point_count() const { return pts->size(); }
-  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return (*pts)[i][static_cast<int>(dim)]; }
-  template <class BBOX>
-  bool kdtree_get_bbox(BBOX&) const {
-    return false;
-  }
-};
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>, PointsAdaptor,
-                                                   3, std::uint32_t>;
+/// Distance from q to the nearest point of `tree` (infinity when empty).
+inline double nearest_distance(const spatial::KdTree& tree, const Vec3& q) {
+  double d2 = 0.0;
+  tree.nearest(q, &d2);
+  return std::sqrt(d2);
+}
 
-/// A kd-tree owning its adaptor (points must outlive it).
-class PointTree {
- public:
-  explicit PointTree(const std::vector<Vec3>& pts)
-      : adaptor_{&pts}, tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
-    tree_.buildIndex();
-  }
-  /// Distance to the nearest point (infinity when empty).
-  double nearest_distance(const Vec3& q) const {
-    if (adaptor_.pts->empty()) return std::numeric_limits<double>::infinity();
-    std::uint32_t idx = 0;
-    double d2 = 0;
-    tree_.knnSearch(q.data(), 1, &idx, &d2);
-    return std::sqrt(d2);
-  }
-  /// Indices of points within `radius` of q, in increasing index order.
-  std::vector<std::uint32_t> radius(const Vec3& q, double radius) const {
-    std::vector<std::pair<std::uint32_t, double>> m;
-    tree_.radiusSearch(q.data(), radius * radius, m, nanoflann::SearchParams(32, 0.f, false));
-    std::vector<std::uint32_t> out;
-    out.reserve(m.size());
-    for (const auto& [i, d] : m) out.push_back(i);
-    std::sort(out.begin(), out.end());
-    return out;
-  }
-
- private:
-  PointsAdaptor adaptor_;
-  KdTree tree_;
-};
+/// Indices of the points of `tree` within `radius` of q (strictly), in increasing index order.
+inline std::vector<std::uint32_t> radius_indices(const spatial::KdTree& tree, const Vec3& q, double radius) {
+  std::vector<std::pair<spatial::KdTree::Index, double>> m;
+  tree.radius(q, radius, m);
+  std::vector<std::uint32_t> out;
+  out.reserve(m.size());
+  for (const auto& [i, d] : m) out.push_back(i);
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 /// Candidate mask (§5.1). Empty voxels whose distance to the surface (nearest iso-point) is in
 /// [d_n, d_f]; outside tested with `field` when given, else with the mesh.
-std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const PointTree& tree,
-                                        const ScannerSpec& scanner, const RayScene& scene, const ImplicitField* field,
-                                        int block_size);
+std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const spatial::KdTree& tree,
+                                        const ScannerSpec& scanner, const spatial::RayScene& scene,
+                                        const ImplicitField* field, int block_size);
 
 /// Eq. 4 on every candidate voxel, brute force or fast (see FieldMethod). Fills g, direction, argmax.
-void compute_vvf(ViewingField& vf, const IsoData& iso, const RayScene& scene, const Weights& W,
+void compute_vvf(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
                  const NbvOptions& options, NbvDiagnostics& diag);
 
 }  // namespace autoscan::nbv::detail

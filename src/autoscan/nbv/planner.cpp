@@ -36,12 +36,12 @@ double view_weight(const Vec3& v, const Vec3& s, const Vec3& n_out, const Scanne
 }
 
 struct NbvPlanner::Impl {
-  std::unique_ptr<detail::RayScene> scene;
+  std::unique_ptr<spatial::RayScene> scene;
   ScannerSpec scanner;
   Rig rig;
   NbvOptions options;
 
-  ViewingField field(const detail::IsoData& iso, const detail::PointTree& tree, const ImplicitField* f,
+  ViewingField field(const detail::IsoData& iso, const spatial::KdTree& tree, const ImplicitField* f,
                      NbvDiagnostics& diag) const {
     Stopwatch sw;
     ViewingField vf;
@@ -66,14 +66,14 @@ NbvPlanner::NbvPlanner(const TriangleMesh& mesh, ScannerSpec scanner, Rig rig, N
   impl_->scanner = scanner;
   impl_->rig = rig;
   impl_->options = options;
-  impl_->scene = std::make_unique<detail::RayScene>(mesh);
+  impl_->scene = detail::make_scene(mesh);
 }
 
 NbvPlanner::~NbvPlanner() = default;
 NbvPlanner::NbvPlanner(NbvPlanner&&) noexcept = default;
 NbvPlanner& NbvPlanner::operator=(NbvPlanner&&) noexcept = default;
 
-void NbvPlanner::set_mesh(const TriangleMesh& mesh) { impl_->scene = std::make_unique<detail::RayScene>(mesh); }
+void NbvPlanner::set_mesh(const TriangleMesh& mesh) { impl_->scene = detail::make_scene(mesh); }
 void NbvPlanner::set_options(const NbvOptions& options) {
   options.validate();
   impl_->options = options;
@@ -85,7 +85,7 @@ const Rig& NbvPlanner::rig() const { return impl_->rig; }
 ViewingField NbvPlanner::compute_field(const PointCloud& iso_pc, const ImplicitField* field,
                                        NbvDiagnostics* diagnostics) const {
   const detail::IsoData iso = detail::prepare_iso(iso_pc, impl_->options);
-  const detail::PointTree tree(iso.p);
+  const spatial::KdTree tree(iso.p);
   NbvDiagnostics local;
   ViewingField vf = impl_->field(iso, tree, field, diagnostics ? *diagnostics : local);
   return vf;
@@ -106,16 +106,17 @@ struct AimResult {
 /// is within working range of its target. w(v, s_j) is Eq. 4's full weight (with visibility).
 /// Ties in eta * zeta are broken by the larger zeta, then the lower index; when every product is 0 the
 /// candidate with the largest zeta wins.
-AimResult aim(const Vec3& v, int seed, const detail::IsoData& iso, const detail::PointTree& tree,
-              const detail::RayScene& scene, const detail::Weights& W, const ScannerSpec& sc, const NbvOptions& o) {
+AimResult aim(const Vec3& v, int seed, const detail::IsoData& iso, const spatial::KdTree& tree,
+              const spatial::RayScene& scene, const detail::Weights& W, const ScannerSpec& sc, const NbvOptions& o) {
   AimResult res;
   const auto sk = static_cast<std::size_t>(seed);
-  const std::vector<std::uint32_t> ups = tree.radius(iso.p[sk], o.upsilon_radius_factor * sc.far);
+  const std::vector<std::uint32_t> ups = detail::radius_indices(tree, iso.p[sk], o.upsilon_radius_factor * sc.far);
   const double th = std::tan(sc.fov_deg * std::numbers::pi / 360.0);
   const double tv = std::tan(sc.vertical_fov_deg() * std::numbers::pi / 360.0);
   // Every point of any frustum from v lies within this distance of v, and within this angle of the
   // direction toward s_k (half diagonal field of view + the angle Upsilon_k subtends from v).
-  const std::vector<std::uint32_t> near_pts = tree.radius(v, sc.far * std::sqrt(1.0 + th * th + tv * tv) * (1 + 1e-9));
+  const std::vector<std::uint32_t> near_pts =
+      detail::radius_indices(tree, v, sc.far * std::sqrt(1.0 + th * th + tv * tv) * (1 + 1e-9));
   const Vec3 axis = (iso.p[sk] - v).normalized();
   const double dist_k = (iso.p[sk] - v).norm();
   const double ups_r = o.upsilon_radius_factor * sc.far;
@@ -190,7 +191,7 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
   PlanResult res;
   auto& diag = res.diagnostics;
   const detail::IsoData iso = detail::prepare_iso(iso_pc, o);
-  const detail::PointTree tree(iso.p);
+  const spatial::KdTree tree(iso.p);
   prog.report(0.0);
   res.field = impl_->field(iso, tree, field, diag);
   prog.report(0.8);

@@ -53,49 +53,6 @@ void Params::finish() const {
   }
 }
 
-// ---- PointIndex -------------------------------------------------------------------------------
-
-namespace {
-struct Adaptor {
-  const std::vector<Vec3>* points = nullptr;
-  std::size_t kdtree_get_point_count() const { return points->size(); }
-  double kdtree_get_pt(std::size_t i, std::size_t d) const { return (*points)[i][static_cast<int>(d)]; }
-  template <class BBox>
-  bool kdtree_get_bbox(BBox& /*bb*/) const {
-    return false;
-  }
-};
-using Tree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>, Adaptor, 3, std::uint32_t>;
-}  // namespace
-
-struct PointIndex::Impl {
-  Adaptor adaptor;
-  Tree tree;
-  explicit Impl(const std::vector<Vec3>& pts)
-      : adaptor{&pts}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
-};
-
-PointIndex::PointIndex(const std::vector<Vec3>& points) : impl_(std::make_unique<Impl>(points)) {}
-PointIndex::~PointIndex() = default;
-
-void PointIndex::radius(const Vec3& q, double r, std::vector<std::pair<std::uint32_t, double>>& out) const {
-  out.clear();
-  if (impl_->adaptor.points->empty()) return;
-  impl_->tree.radiusSearch(q.data(), r * r, out, nanoflann::SearchParams(32, 0.f, false));
-}
-
-std::size_t PointIndex::knn(const Vec3& q, std::size_t k, std::vector<std::uint32_t>& idx,
-                            std::vector<double>& d2) const {
-  idx.resize(k);
-  d2.resize(k);
-  if (impl_->adaptor.points->empty() || k == 0) return 0;
-  const std::size_t n = impl_->tree.knnSearch(q.data(), k, idx.data(), d2.data());
-  idx.resize(n);
-  d2.resize(n);
-  return n;
-}
-
 // ---- views ------------------------------------------------------------------------------------
 
 std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const Vec3& position, const Vec3& target) {
@@ -173,7 +130,7 @@ std::vector<std::vector<std::size_t>> cluster_greedy(const std::vector<Vec3>& po
                                                      double min_dot) {
   std::vector<std::vector<std::size_t>> clusters;
   if (positions.empty()) return clusters;
-  PointIndex index(positions);
+  const spatial::KdTree index(positions);
   std::vector<bool> taken(positions.size(), false);
   std::vector<std::pair<std::uint32_t, double>> hits;
   for (std::size_t s = 0; s < positions.size(); ++s) {

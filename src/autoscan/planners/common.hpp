@@ -1,11 +1,11 @@
 #pragma once
 // Shared helpers of the baseline planners (random, sphere, density, curvature, visibility, pvs):
-// parameter parsing with typo detection, a kd-tree over points, placing a view so the rig can
-// reach it with its target in the working range, greedy selection with a minimum separation, and
-// the nbv-field runner that the density and curvature planners share with ours.
+// parameter parsing with typo detection, placing a view so the rig can reach it with its target in
+// the working range, greedy selection with a minimum separation, and the nbv-field runner that the
+// density and curvature planners share with ours. Their kd-tree is the spatial floor's
+// (spatial::KdTree, leaf size 16 as before).
 #include <cstdint>
 #include <memory>
-#include <nanoflann.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
@@ -14,6 +14,7 @@
 
 #include "autoscan/nbv/nbv.hpp"
 #include "autoscan/planners/planner.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::planners::detail {
 
@@ -33,22 +34,6 @@ class Params {
   std::string planner_;
   nlohmann::json params_;
   std::set<std::string> used_;
-};
-
-/// A kd-tree over a point vector (nanoflann 1.4, squared distances). Owns nothing: `points` must
-/// outlive it and stay unchanged. Const queries are thread-safe.
-class PointIndex {
- public:
-  explicit PointIndex(const std::vector<Vec3>& points);
-  ~PointIndex();
-  /// Indices of the points within `radius` of q (unsorted).
-  void radius(const Vec3& q, double radius, std::vector<std::pair<std::uint32_t, double>>& out) const;
-  /// The k nearest points (sorted); returns how many were found.
-  std::size_t knn(const Vec3& q, std::size_t k, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
 };
 
 /// A pose at `position` looking at `target`, moved onto the rig's reach when the rig is a

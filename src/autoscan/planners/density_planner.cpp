@@ -24,7 +24,7 @@ std::vector<double> density_need(const ModelState& state, const DensityPlannerOp
   const std::size_t n = state.iso_points.size();
   const AABB box = state.acquired_bounds.empty() ? state.raw.bounds() : state.acquired_bounds;
   const double r = options.radius_factor * std::max(box.diagonal(), 1e-9);
-  detail::PointIndex index(state.raw.positions);
+  const spatial::KdTree index(state.raw.positions);
   std::vector<double> rho(n, 0.0);
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
     std::vector<std::pair<std::uint32_t, double>> hits;

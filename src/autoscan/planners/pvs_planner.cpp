@@ -35,7 +35,7 @@ BoundaryPoints detect_boundary(const PointCloud& cloud, const PvsPlannerOptions&
   std::vector<std::size_t> tested;
   for (std::size_t i = 0; i < cloud.size(); i += stride) tested.push_back(i);
   out.tested = tested.size();
-  detail::PointIndex index(cloud.positions);
+  const spatial::KdTree index(cloud.positions);
   const double gap_min = options.boundary_gap_deg * std::numbers::pi / 180.0;
   std::vector<Vec3> dir(tested.size(), Vec3::Zero());
   tbb::parallel_for(std::size_t(0), tested.size(), [&](std::size_t t) {

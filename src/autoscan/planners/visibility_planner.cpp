@@ -47,7 +47,7 @@ VisibilityRecord point_visibility(const ModelState& state, const PointCloud& clo
   };
   const AABB box = state.acquired_bounds.empty() ? raw.bounds() : state.acquired_bounds;
   const double r = options.radius_factor * std::max(box.diagonal(), 1e-9);
-  detail::PointIndex index(raw.positions);
+  const spatial::KdTree index(raw.positions);
   VisibilityRecord rec;
   rec.best_incidence_deg.assign(cloud.size(), 180.0);
   rec.observations.assign(cloud.size(), 0);

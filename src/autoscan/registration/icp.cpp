@@ -12,7 +12,7 @@
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/timer.hpp"
-#include "autoscan/registration/nearest.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::registration {
 
@@ -52,7 +52,7 @@ struct Pairs {
 
 class Matcher {
  public:
-  Matcher(const std::vector<Vec3>& src, const PointCloud& target, const NearestNeighbors& nn, bool plane,
+  Matcher(const std::vector<Vec3>& src, const PointCloud& target, const spatial::KdTree& nn, bool plane,
           double max_dist, double trim)
       : src_(src), target_(target), nn_(nn), plane_(plane), max_d2_(max_dist * max_dist), trim_(trim) {
     moved_.resize(src.size());
@@ -100,7 +100,7 @@ class Matcher {
  private:
   const std::vector<Vec3>& src_;
   const PointCloud& target_;
-  const NearestNeighbors& nn_;
+  const spatial::KdTree& nn_;
   bool plane_;
   double max_d2_;
   double trim_;
@@ -225,7 +225,7 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
   }
   res.source_points_used = src.size();
 
-  const NearestNeighbors nn(target.positions);
+  const spatial::KdTree nn(target.positions, kKdLeafSize);
   Matcher matcher(src, target, nn, plane, maxd, options.trim_fraction);
   Eigen::Isometry3d T = initial;
   Pairs pairs = matcher.match(T);

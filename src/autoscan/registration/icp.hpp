@@ -9,6 +9,7 @@
 // linearised in the rotation (point-to-plane) or in closed form (weighted Kabsch, point-to-point).
 // Deterministic: the correspondence search is parallel but every reduction runs in index order.
 #include <Eigen/Geometry>
+#include <cstddef>
 #include <nlohmann/json_fwd.hpp>
 #include <span>
 #include <string>
@@ -17,6 +18,11 @@
 #include "autoscan/core/progress.hpp"
 
 namespace autoscan::registration {
+
+/// Leaf size of the registration's kd-trees (spatial::KdTree): the correspondence search and the
+/// session's Eq. 6 look-ups. Kept at 10, the registration's choice before the spatial floor, so that
+/// ties between equidistant points resolve as before.
+inline constexpr std::size_t kKdLeafSize = 10;
 
 struct IcpOptions {
   int max_iterations = 50;                   ///< hard cap on ICP iterations

@@ -14,8 +14,8 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/timer.hpp"
-#include "autoscan/registration/nearest.hpp"
 #include "autoscan/registration/pose_graph.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::registration {
 
@@ -44,9 +44,9 @@ struct Prepared {
   PointCloud target;           // with normals
   std::vector<double> weight;  // per target point: cos(incidence)^power (docs/registration.md)
   std::vector<double> sample_weight;
-  std::unique_ptr<NearestNeighbors> tree;
-  double spacing = 0.0;  // median nearest-neighbour distance within the target
-  double range = 0.0;    // distance from the sensor to the scan's centroid
+  std::unique_ptr<spatial::KdTree> tree;  // over its own copy of target.positions
+  double spacing = 0.0;                   // median nearest-neighbour distance within the target
+  double range = 0.0;                     // distance from the sensor to the scan's centroid
   Vec3 sensor = Vec3::Zero();
   std::shared_ptr<const PreparedScan> fit;  // what it was made from (surface fits, k, noise)
 };
@@ -106,7 +106,7 @@ Prepared prepare(std::shared_ptr<const PreparedScan> fit, const Vec3& sensor, co
     p.sample.push_back(p.target.positions[i]);
     p.sample_weight.push_back(p.weight[i]);
   }
-  p.tree = std::make_unique<NearestNeighbors>(p.target.positions);
+  p.tree = std::make_unique<spatial::KdTree>(std::vector<Vec3>(p.target.positions), kKdLeafSize);
   // Spacing: median distance to the nearest other point over a few hundred samples.
   std::vector<double> d;
   std::vector<std::size_t> idx;
@@ -348,7 +348,7 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
   fit.projected.assign(points.begin(), points.end());
   fit.neighbors = o.k > 0 ? o.k : o.k_min;
   if (points.size() < 3) return fit;
-  const NearestNeighbors nn(points);
+  const spatial::KdTree nn(points, kKdLeafSize);
   std::vector<std::size_t> idx;
   std::vector<double> d2;
   // Noise and spacing from a few hundred evenly spread points: σ̂ = 1.4826 · median |residual| of a

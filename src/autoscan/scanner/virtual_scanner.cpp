@@ -1,6 +1,5 @@
 #include "autoscan/scanner/virtual_scanner.hpp"
 
-#include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -14,30 +13,13 @@
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/core/timer.hpp"
+#include "autoscan/spatial/ray_scene.hpp"
 
 namespace autoscan::scanner {
 namespace {
 
-constexpr int kPacket = 16;  // rays per Embree packet (rtcIntersect16)
+constexpr int kPacket = spatial::RayScene::kPacketSize;  // rays per packet (Embree rtcIntersect16)
 constexpr double kDegToRad = std::numbers::pi / 180.0;
-
-struct DeviceDeleter {
-  void operator()(RTCDevice d) const { rtcReleaseDevice(d); }
-};
-struct SceneDeleter {
-  void operator()(RTCScene s) const { rtcReleaseScene(s); }
-};
-using DevicePtr = std::unique_ptr<std::remove_pointer_t<RTCDevice>, DeviceDeleter>;
-using ScenePtr = std::unique_ptr<std::remove_pointer_t<RTCScene>, SceneDeleter>;
-
-void embree_error(void* /*user*/, RTCError code, const char* str) {
-  log::warn("embree error {}: {}", static_cast<int>(code), str ? str : "");
-}
-
-void check_device(RTCDevice device, const char* what) {
-  const RTCError e = rtcGetDeviceError(device);
-  AUTOSCAN_CHECK(e == RTC_ERROR_NONE, "scanner: Embree failed while {} (error code {})", what, static_cast<int>(e));
-}
 
 /// Per-row counters, summed after the parallel loop (the sum does not depend on scheduling).
 struct Counters {
@@ -60,13 +42,12 @@ struct VirtualScanner::Impl {
   ScannerSpec spec;
   VirtualScannerOptions options;
   AABB box;
-  Vec3 shift = Vec3::Zero();  // the Embree scene holds vertices - shift (better float precision)
+  Vec3 shift = Vec3::Zero();  // the ray scene holds vertices - shift (better float precision)
   double diag = 0.0;
   std::vector<Vec3> vertices;  // shifted, double precision
   std::vector<Tri> faces;
-  std::vector<Vec3> normals;  // unit face normals (zero for degenerate faces)
-  DevicePtr device;
-  ScenePtr scene;
+  std::unique_ptr<spatial::RayScene> scene;    // of the shifted vertices
+  const std::vector<Vec3>* normals = nullptr;  // the scene's unit face normals (zero for degenerate faces)
   // Camera intrinsics: pixel (c, r) looks along ((c + 0.5 - cx)/f, (r + 0.5 - cy)/f, 1).
   double f = 1.0, cx = 0.0, cy = 0.0;
   double tan_proj_h = 0.0, tan_proj_v = 0.0;
@@ -74,143 +55,26 @@ struct VirtualScanner::Impl {
 
   void intersect(int n, const Vec3& org, const Vec3* dirs, unsigned* prim) const;
   void occluded(int n, const Vec3& org, const Vec3* dirs, const double* tfar, const bool* active, bool* hit) const;
-  int crossings(const Vec3& org_local, const Vec3& dir) const;
   ScanResult run(const Pose& commanded, const Eigen::Isometry3d& world_from_true, std::uint64_t scan_id,
                  const Rng& scan_rng) const;
   void check_pose(const Pose& pose, const std::string& what) const;
 };
 
 void VirtualScanner::Impl::intersect(int n, const Vec3& org, const Vec3* dirs, unsigned* prim) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
   if (options.ray_mode == RayMode::packets) {
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    alignas(64) int valid[kPacket];
-    RTCRayHit16 rh;
-    for (int i = 0; i < kPacket; ++i) {
-      valid[i] = i < n ? -1 : 0;
-      const Vec3& d = dirs[i < n ? i : 0];
-      rh.ray.org_x[i] = static_cast<float>(org.x());
-      rh.ray.org_y[i] = static_cast<float>(org.y());
-      rh.ray.org_z[i] = static_cast<float>(org.z());
-      rh.ray.dir_x[i] = static_cast<float>(d.x());
-      rh.ray.dir_y[i] = static_cast<float>(d.y());
-      rh.ray.dir_z[i] = static_cast<float>(d.z());
-      rh.ray.tnear[i] = 0.0f;
-      rh.ray.tfar[i] = std::numeric_limits<float>::infinity();
-      rh.ray.time[i] = 0.0f;
-      rh.ray.mask[i] = static_cast<unsigned>(-1);
-      rh.ray.id[i] = static_cast<unsigned>(i);
-      rh.ray.flags[i] = 0;
-      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-      rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
-    rtcIntersect16(valid, scene.get(), &ctx, &rh);
-    for (int i = 0; i < n; ++i)
-      prim[i] = rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : rh.hit.primID[i];
+    scene->first_hits(n, org, dirs, prim);
     return;
   }
-  for (int i = 0; i < n; ++i) {
-    RTCRayHit rh;
-    rh.ray.org_x = static_cast<float>(org.x());
-    rh.ray.org_y = static_cast<float>(org.y());
-    rh.ray.org_z = static_cast<float>(org.z());
-    rh.ray.dir_x = static_cast<float>(dirs[i].x());
-    rh.ray.dir_y = static_cast<float>(dirs[i].y());
-    rh.ray.dir_z = static_cast<float>(dirs[i].z());
-    rh.ray.tnear = 0.0f;
-    rh.ray.tfar = std::numeric_limits<float>::infinity();
-    rh.ray.time = 0.0f;
-    rh.ray.mask = static_cast<unsigned>(-1);
-    rh.ray.id = static_cast<unsigned>(i);
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene.get(), &ctx, &rh);
-    prim[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : rh.hit.primID;
-  }
+  for (int i = 0; i < n; ++i) prim[i] = scene->first_hit(org, dirs[i]);
 }
 
 void VirtualScanner::Impl::occluded(int n, const Vec3& org, const Vec3* dirs, const double* tfar, const bool* active,
                                     bool* hit) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
   if (options.ray_mode == RayMode::packets) {
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    alignas(64) int valid[kPacket];
-    RTCRay16 r;
-    for (int i = 0; i < kPacket; ++i) {
-      const bool on = i < n && active[i];
-      valid[i] = on ? -1 : 0;
-      const Vec3& d = dirs[on ? i : 0];
-      r.org_x[i] = static_cast<float>(org.x());
-      r.org_y[i] = static_cast<float>(org.y());
-      r.org_z[i] = static_cast<float>(org.z());
-      r.dir_x[i] = static_cast<float>(d.x());
-      r.dir_y[i] = static_cast<float>(d.y());
-      r.dir_z[i] = static_cast<float>(d.z());
-      r.tnear[i] = 0.0f;
-      r.tfar[i] = on ? static_cast<float>(tfar[i]) : 0.0f;
-      r.time[i] = 0.0f;
-      r.mask[i] = static_cast<unsigned>(-1);
-      r.id[i] = static_cast<unsigned>(i);
-      r.flags[i] = 0;
-    }
-    rtcOccluded16(valid, scene.get(), &ctx, &r);
-    // Embree sets tfar to -inf for occluded rays.
-    for (int i = 0; i < n; ++i) hit[i] = active[i] && r.tfar[i] < 0.0f;
+    scene->occluded(n, org, dirs, tfar, active, hit);
     return;
   }
-  for (int i = 0; i < n; ++i) {
-    hit[i] = false;
-    if (!active[i]) continue;
-    RTCRay r;
-    r.org_x = static_cast<float>(org.x());
-    r.org_y = static_cast<float>(org.y());
-    r.org_z = static_cast<float>(org.z());
-    r.dir_x = static_cast<float>(dirs[i].x());
-    r.dir_y = static_cast<float>(dirs[i].y());
-    r.dir_z = static_cast<float>(dirs[i].z());
-    r.tnear = 0.0f;
-    r.tfar = static_cast<float>(tfar[i]);
-    r.time = 0.0f;
-    r.mask = static_cast<unsigned>(-1);
-    r.id = static_cast<unsigned>(i);
-    r.flags = 0;
-    rtcOccluded1(scene.get(), &ctx, &r);
-    hit[i] = r.tfar < 0.0f;
-  }
-}
-
-int VirtualScanner::Impl::crossings(const Vec3& org_local, const Vec3& dir) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  int count = 0;
-  float tnear = 0.0f;
-  for (int guard = 0; guard < 1000000; ++guard) {
-    RTCRayHit rh;
-    rh.ray.org_x = static_cast<float>(org_local.x());
-    rh.ray.org_y = static_cast<float>(org_local.y());
-    rh.ray.org_z = static_cast<float>(org_local.z());
-    rh.ray.dir_x = static_cast<float>(dir.x());
-    rh.ray.dir_y = static_cast<float>(dir.y());
-    rh.ray.dir_z = static_cast<float>(dir.z());
-    rh.ray.tnear = tnear;
-    rh.ray.tfar = std::numeric_limits<float>::infinity();
-    rh.ray.time = 0.0f;
-    rh.ray.mask = static_cast<unsigned>(-1);
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene.get(), &ctx, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) break;
-    ++count;
-    // Step past this hit (a hit on a shared edge is reported once: the next search starts beyond it).
-    const float step = std::max(static_cast<float>(1e-6 * diag), rh.ray.tfar * 1e-6f);
-    tnear = rh.ray.tfar + step;
-  }
-  return count;
+  for (int i = 0; i < n; ++i) hit[i] = active[i] && scene->occluded(org, dirs[i], tfar[i]);
 }
 
 void VirtualScanner::Impl::check_pose(const Pose& pose, const std::string& what) const {
@@ -289,10 +153,10 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
         intersect(n, rays.origin_local, world_dir.data(), prim.data());
         for (int i = 0; i < n; ++i) {
           active[i] = false;
-          if (prim[i] == RTC_INVALID_GEOMETRY_ID) continue;
+          if (prim[i] == spatial::RayScene::kNoHit) continue;
           ++cnt.hits;
           // Refine the hit in double precision: the ray against the hit triangle's plane.
-          const Vec3& nrm = normals[prim[i]];
+          const Vec3& nrm = (*normals)[prim[i]];
           const double denom = nrm.dot(world_dir[i]);
           if (std::abs(denom) < 1e-300) {
             ++cnt.incidence;  // a ray in the triangle's plane: grazing
@@ -469,14 +333,6 @@ VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec
   s.vertices.reserve(mesh.vertices.size());
   for (const auto& v : mesh.vertices) s.vertices.push_back(v - s.shift);
   s.faces = mesh.faces;
-  s.normals.resize(s.faces.size());
-  for (std::size_t i = 0; i < s.faces.size(); ++i) {
-    const auto& t = s.faces[i];
-    const Vec3 n = (s.vertices[static_cast<std::size_t>(t[1])] - s.vertices[static_cast<std::size_t>(t[0])])
-                       .cross(s.vertices[static_cast<std::size_t>(t[2])] - s.vertices[static_cast<std::size_t>(t[0])]);
-    const double len = n.norm();
-    s.normals[i] = len > 0 ? Vec3(n / len) : Vec3::Zero();
-  }
 
   const double half = std::tan(spec.fov_deg * kDegToRad / 2.0);
   s.f = (spec.width / 2.0) / half;
@@ -487,32 +343,8 @@ VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec
   s.cos_max = std::cos(spec.max_incidence_deg * kDegToRad);
   s.tan_max = std::tan(std::min(spec.max_incidence_deg, 89.0) * kDegToRad);
 
-  s.device.reset(rtcNewDevice(nullptr));
-  AUTOSCAN_CHECK(s.device != nullptr, "scanner: could not create the Embree device (error {})",
-                 static_cast<int>(rtcGetDeviceError(nullptr)));
-  rtcSetDeviceErrorFunction(s.device.get(), embree_error, nullptr);
-  s.scene.reset(rtcNewScene(s.device.get()));
-  rtcSetSceneFlags(s.scene.get(), RTC_SCENE_FLAG_ROBUST);  // watertight: no rays through shared edges
-  RTCGeometry geom = rtcNewGeometry(s.device.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
-  check_device(s.device.get(), "creating the geometry");
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                         3 * sizeof(float), s.vertices.size()));
-  auto* ib = static_cast<unsigned*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), s.faces.size()));
-  if (!vb || !ib) {
-    rtcReleaseGeometry(geom);
-    check_device(s.device.get(), "allocating the mesh buffers");
-    throw RuntimeError("scanner: Embree could not allocate the mesh buffers");
-  }
-  for (std::size_t i = 0; i < s.vertices.size(); ++i)
-    for (int k = 0; k < 3; ++k) vb[3 * i + static_cast<std::size_t>(k)] = static_cast<float>(s.vertices[i][k]);
-  for (std::size_t i = 0; i < s.faces.size(); ++i)
-    for (int k = 0; k < 3; ++k) ib[3 * i + static_cast<std::size_t>(k)] = static_cast<unsigned>(s.faces[i][k]);
-  rtcCommitGeometry(geom);
-  rtcAttachGeometry(s.scene.get(), geom);
-  rtcReleaseGeometry(geom);
-  rtcCommitScene(s.scene.get());
-  check_device(s.device.get(), "building the BVH");
+  s.scene = std::make_unique<spatial::RayScene>(s.vertices, s.faces);
+  s.normals = &s.scene->face_normals();
 }
 
 VirtualScanner::~VirtualScanner() = default;
@@ -522,15 +354,7 @@ VirtualScanner& VirtualScanner::operator=(VirtualScanner&&) noexcept = default;
 bool VirtualScanner::inside(const Vec3& point) const {
   AUTOSCAN_REQUIRE(point.allFinite(), "inside: the point has a non-finite coordinate");
   const Impl& s = *impl_;
-  if (!s.box.contains(point)) return false;
-  // Fixed, "irrational" directions so that edges and vertices are rarely hit exactly.
-  static const std::array<Vec3, 5> dirs = {
-      Vec3(0.5773, 0.5774, 0.5775).normalized(), Vec3(-0.8017, 0.2673, 0.5345).normalized(),
-      Vec3(0.1361, -0.9526, 0.2722).normalized(), Vec3(-0.3015, -0.3015, -0.9045).normalized(),
-      Vec3(0.7071, -0.1414, -0.6931).normalized()};
-  int odd = 0;
-  for (const auto& d : dirs) odd += s.crossings(point - s.shift, d) % 2;
-  return odd >= 4;
+  return s.scene->inside(point - s.shift);  // the spatial floor's inside test (spatial/ray_scene.hpp)
 }
 
 namespace {

@@ -1,6 +1,6 @@
 #pragma once
 // The virtual structured-light scanner (paper §6, Figure 15): a pinhole camera and a projector offset
-// by a baseline, ray cast with Embree 3. A pixel yields a point only when
+// by a baseline, ray cast with Embree 3 (spatial::RayScene). A pixel yields a point only when
 //   * the camera ray hits the mesh (the first hit: nothing is seen through a surface),
 //   * the hit's depth along the camera's optical axis (camera z, the usual way a structured-light
 //     working volume is specified) lies in [near, far],
@@ -92,8 +92,8 @@ struct ScanResult {
   ScanDiagnostics diagnostics;
 };
 
-/// A scanner bound to one mesh: the Embree device, scene and BVH are built once in the constructor
-/// and reused by every scan (STYLE.md §6). scan() is const and thread-safe.
+/// A scanner bound to one mesh: the ray scene (Embree's BVH) is built once in the constructor and
+/// reused by every scan (STYLE.md §6). scan() is const and thread-safe.
 class VirtualScanner {
  public:
   /// Throws InputError for an empty mesh, a mesh with bad indices or non-finite vertices, or an
@@ -114,8 +114,9 @@ class VirtualScanner {
   /// as in scan().
   ScanResult scan_from(const Pose& commanded, const Pose& actual, std::uint64_t scan_id, std::uint64_t seed = 42) const;
 
-  /// True when `point` is inside the mesh (parity of ray crossings, majority over 5 directions).
-  /// Meaningful for closed meshes; an open mesh rarely gives a consistent odd parity.
+  /// True when `point` is inside the mesh: the spatial floor's inside test (spatial::RayScene::inside,
+  /// a vote over 5 rays of whether the first surface hit is seen from behind). Needs outward oriented
+  /// faces; tolerates small holes.
   bool inside(const Vec3& point) const;
 
   const ScannerSpec& spec() const;

@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "autoscan/core/error.hpp"
-#include "autoscan/registration/nearest.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::session {
 
@@ -17,8 +17,8 @@ std::vector<double> predicted_depth_sigma(const PointCloud& scan, const ScannerS
   const auto* sy = scan.scalars.find("sensor_y");
   const auto* sz = scan.scalars.find("sensor_z");
   AUTOSCAN_REQUIRE(sx && sy && sz, "quality: the scan has no sensor position");
-  std::unique_ptr<registration::NearestNeighbors> nn;
-  if (!scan.has_normals() && n >= 3) nn = std::make_unique<registration::NearestNeighbors>(scan.positions);
+  std::unique_ptr<spatial::KdTree> nn;
+  if (!scan.has_normals() && n >= 3) nn = std::make_unique<spatial::KdTree>(scan.positions);
   std::vector<std::size_t> idx;
   std::vector<double> d2;
   for (std::size_t i = 0; i < n; ++i) {
@@ -55,7 +55,7 @@ std::vector<double> sample_depth_sigma(std::span<const Vec3> samples, std::span<
   AUTOSCAN_REQUIRE(raw.size() == raw_sigma.size(), "quality: {} σ values for {} points", raw_sigma.size(), raw.size());
   std::vector<double> out(samples.size(), 1.0);
   if (raw.empty()) return out;
-  const registration::NearestNeighbors nn(raw);
+  const spatial::KdTree nn(raw);
   std::vector<std::size_t> idx;
   std::vector<double> d2;
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -81,10 +81,11 @@ std::vector<double> precision_weights(std::span<const double> sigma) {
 }
 
 struct QualityGate::Impl {
-  registration::NearestNeighbors nn;
+  spatial::KdTree nn;  // owns a copy of the surface points
   std::vector<double> sigma;
   double gate = 0.0;
-  Impl(std::span<const Vec3> s, std::span<const double> sg) : nn(s), sigma(sg.begin(), sg.end()) {}
+  Impl(std::span<const Vec3> s, std::span<const double> sg)
+      : nn(std::vector<Vec3>(s.begin(), s.end())), sigma(sg.begin(), sg.end()) {}
 };
 
 QualityGate::QualityGate() = default;

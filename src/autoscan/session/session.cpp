@@ -17,8 +17,8 @@
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/mesh_io.hpp"
-#include "autoscan/registration/nearest.hpp"
 #include "autoscan/session/quality.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::session {
 
@@ -29,6 +29,10 @@ namespace {
 
 constexpr const char* kFormat = "autoscan-session";
 constexpr int kVersion = 1;
+// Leaf size of the kd-trees over the iso-points (Eq. 6 and the registration weights): 10, as when
+// the session borrowed the registration's tree, so that ties between equidistant iso-points resolve
+// as before.
+constexpr std::size_t kIsoLeafSize = 10;
 
 // Random streams derived from the session seed (independent of restarts and of each other).
 constexpr std::uint64_t kInsertionStream = 0x45713;  // Eq. 6, one sub-stream per scan id
@@ -203,7 +207,7 @@ std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, cons
   AUTOSCAN_REQUIRE(std::isfinite(rho) && rho >= 0.0, "selective insertion: rho must be >= 0 (got {})", rho);
   std::vector<char> keep(points.size(), 1);
   if (iso_points.empty() || points.empty()) return keep;
-  const registration::NearestNeighbors nn(iso_points);
+  const spatial::KdTree nn(iso_points, kIsoLeafSize);
   std::vector<std::size_t> idx(points.size());
   nn.nearest(points, idx, {});
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -574,7 +578,7 @@ struct Session::Impl {
     iso_f = f ? *f : std::vector<double>(iso.size(), 0.0);
     target_weight.assign(target.size(), 1.0);
     if (!iso_positions.empty() && !target.empty()) {
-      const registration::NearestNeighbors nn(iso_positions);
+      const spatial::KdTree nn(iso_positions, kIsoLeafSize);
       std::vector<std::size_t> idx(target.size());
       nn.nearest(target.positions, idx, {});
       for (std::size_t i = 0; i < target.size(); ++i) target_weight[i] = std::clamp(iso_f[idx[i]], 0.0, 1.0);
