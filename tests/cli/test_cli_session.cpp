@@ -12,7 +12,12 @@ using autoscan::testing::run_cli;
 
 namespace {
 
-std::string q(const std::filesystem::path& p) { return "'" + p.string() + "'"; }
+std::string q(const std::filesystem::path& p) {
+  std::string s = "'";  // appended, not "'" + string: GCC 12's -Wrestrict false positive on operator+
+  s += p.string();
+  s += '\'';
+  return s;
+}
 
 std::filesystem::path write_scan(const std::filesystem::path& dir) {
   autoscan::Rng rng(5);
@@ -86,5 +91,29 @@ TEST(CliSession, BadInputIsExitCodeTwo) {
   // Nothing was acknowledged by the failed calls.
   const auto session = nlohmann::json::parse(std::ifstream(sdir / "session.json"));
   EXPECT_TRUE(session.at("scans").empty());
+  std::filesystem::remove_all(d);
+}
+
+// Issue 16: bad options are refused at `session init`, before any scan is acknowledged (a bad Poisson
+// depth used to pass init and fail at the first next-views); every option of the config reaches
+// session.json, vertex_refinement and sheet_refinement included.
+TEST(CliSession, InitRefusesBadOptionsAndKeepsEveryGivenOne) {
+  const auto d = fresh_dir("cli_session_config");
+  std::filesystem::create_directories(d);
+  const auto bad = d / "bad.json";
+  std::ofstream(bad) << R"({"poisson": {"depth": 99}})";
+  auto r = run_cli("session init " + q(d / "s") + " --config " + q(bad));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find(bad.string() + ": poisson.depth must be in [2, 12] (got 99)"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(d / "s" / "session.json"));
+
+  const auto good = d / "good.json";
+  std::ofstream(good)
+      << R"({"poisson": {"vertex_refinement": 0}, "consolidate": {"normals": {"sheet_refinement": false}}})";
+  r = run_cli("session init " + q(d / "s") + " --config " + q(good));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto session = nlohmann::json::parse(std::ifstream(d / "s" / "session.json"));
+  EXPECT_EQ(session.at("params").at("poisson").at("vertex_refinement"), 0);
+  EXPECT_EQ(session.at("params").at("consolidate").at("normals").at("sheet_refinement"), false);
   std::filesystem::remove_all(d);
 }

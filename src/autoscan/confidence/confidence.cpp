@@ -16,18 +16,9 @@
 
 namespace autoscan::confidence {
 
-namespace {
+void ConfidenceOptions::validate(const std::string& what) const { schema::check(*this, what); }
 
-void validate(const ConfidenceOptions& o) {
-  AUTOSCAN_REQUIRE(o.k >= 1, "confidence: k (K of Eq. 2) must be >= 1 (got {})", o.k);
-  AUTOSCAN_REQUIRE(std::isfinite(o.theta_divisor) && o.theta_divisor > 0.0,
-                   "confidence: theta_divisor (Eq. 2) must be > 0 (got {})", o.theta_divisor);
-  AUTOSCAN_REQUIRE(std::isfinite(o.phi_divisor) && o.phi_divisor > 0.0,
-                   "confidence: phi_divisor (Eq. 2) must be > 0 (got {})", o.phi_divisor);
-  AUTOSCAN_REQUIRE(std::isfinite(o.reference_smoothness) && o.reference_smoothness >= 0.0,
-                   "confidence: reference_smoothness must be >= 0 (got {})", o.reference_smoothness);
-  AUTOSCAN_REQUIRE(o.mesh_neighbours >= 1, "confidence: mesh_neighbours must be >= 1 (got {})", o.mesh_neighbours);
-}
+namespace {
 
 double clamp01(double x) { return std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : 0.0; }
 
@@ -106,7 +97,7 @@ ConfidenceEvaluator::ConfidenceEvaluator(const PointCloud& raw, ConfidenceOption
 
 ConfidenceEvaluator::ConfidenceEvaluator(std::vector<Vec3> raw_positions, ConfidenceOptions options)
     : impl_(std::make_unique<Impl>()) {
-  validate(options);
+  options.validate();
   AUTOSCAN_REQUIRE(!raw_positions.empty(), "confidence: the raw point cloud is empty");
   AUTOSCAN_REQUIRE(raw_positions.size() >= static_cast<std::size_t>(options.k),
                    "confidence: k = {} (K of Eq. 2) is larger than the raw point cloud ({} points)", options.k,

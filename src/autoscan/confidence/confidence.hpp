@@ -21,12 +21,14 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "autoscan/core/implicit.hpp"
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/progress.hpp"
+#include "autoscan/core/schema.hpp"
 #include "autoscan/core/types.hpp"
 
 namespace autoscan::confidence {
@@ -51,6 +53,19 @@ struct IsoPointOptions {
   double max_step_fraction = 0.5;
   /// Seed of the candidate sampling (results are deterministic for a seed, whatever the threads).
   std::uint64_t seed = 42;
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("count", count);
+    v("spacing", spacing, schema::at_least(0));
+    v("candidate_factor", candidate_factor, schema::at_least(1));
+    v("elimination_alpha", elimination_alpha, schema::above(0));
+    v("projection_steps", projection_steps, schema::closed(0, 100));
+    v("max_step_fraction", max_step_fraction, schema::above(0));
+    v("seed", seed);
+  }
+  /// Throws InputError naming the option for values out of range (count >= 1 unless spacing > 0).
+  void validate(const std::string& what = "iso-points") const;
 };
 
 /// Options of the confidence map (paper §4.2, Eq. 1-3).
@@ -69,6 +84,19 @@ struct ConfidenceOptions {
   int mesh_neighbours = 4;
   /// Optional progress/cancel callback (stage "confidence").
   ProgressCallback progress;
+
+  /// Every option but `progress` (docs/options.md).
+  template <class V>
+  void visit_fields(V& v) {
+    v("iso", iso);
+    v("k", k, schema::at_least(1));
+    v("theta_divisor", theta_divisor, schema::above(0));
+    v("phi_divisor", phi_divisor, schema::above(0));
+    v("reference_smoothness", reference_smoothness, schema::at_least(0));
+    v("mesh_neighbours", mesh_neighbours, schema::at_least(1));
+  }
+  /// Throws InputError naming the option for values out of range (`iso` included).
+  void validate(const std::string& what = "confidence") const;
 };
 
 /// Iso-points on the iso-surface of a field (positions s_k with their field data).

@@ -110,24 +110,15 @@ std::vector<std::size_t> eliminate(const std::vector<Vec3>& cand, std::size_t n,
   return keep;
 }
 
-void validate(const IsoPointOptions& o) {
-  AUTOSCAN_REQUIRE(std::isfinite(o.spacing) && o.spacing >= 0.0, "iso-points: spacing must be >= 0 (got {})",
-                   o.spacing);
-  AUTOSCAN_REQUIRE(o.spacing > 0.0 || o.count >= 1, "iso-points: count must be >= 1 when no spacing is given");
-  AUTOSCAN_REQUIRE(std::isfinite(o.candidate_factor) && o.candidate_factor >= 1.0,
-                   "iso-points: candidate_factor must be >= 1 (got {})", o.candidate_factor);
-  AUTOSCAN_REQUIRE(std::isfinite(o.elimination_alpha) && o.elimination_alpha > 0.0,
-                   "iso-points: elimination_alpha must be > 0 (got {})", o.elimination_alpha);
-  AUTOSCAN_REQUIRE(o.projection_steps >= 0 && o.projection_steps <= 100,
-                   "iso-points: projection_steps must be in [0, 100] (got {})", o.projection_steps);
-  AUTOSCAN_REQUIRE(std::isfinite(o.max_step_fraction) && o.max_step_fraction > 0.0,
-                   "iso-points: max_step_fraction must be > 0 (got {})", o.max_step_fraction);
-}
-
 }  // namespace
 
+void IsoPointOptions::validate(const std::string& what) const {
+  schema::check(*this, what);
+  AUTOSCAN_REQUIRE(spacing > 0.0 || count >= 1, "{}: count must be >= 1 when no spacing is given", what);
+}
+
 IsoPoints sample_iso_points(const ImplicitField& field, const TriangleMesh& mesh, const IsoPointOptions& options) {
-  validate(options);
+  options.validate();
   AUTOSCAN_REQUIRE(!mesh.faces.empty(), "iso-points: the iso-surface mesh is empty (no triangles)");
   mesh.validate("iso-surface mesh");
 

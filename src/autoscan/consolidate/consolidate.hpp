@@ -16,12 +16,14 @@
 // options; the parallel paths give the same result as the sequential ones.
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/progress.hpp"
+#include "autoscan/core/schema.hpp"
 
 namespace autoscan::consolidate {
 
@@ -34,12 +36,24 @@ struct OutlierOptions {
   int k = 16;               ///< neighbours for d_i and for the threshold statistics (same k for both)
   double std_ratio = 3.0;   ///< threshold in robust standard deviations above the median
   double min_spread = 0.2;  ///< floor of σ as a fraction of median(d) (keeps borders of regular grids)
+  template <class V>
+  void visit_fields(V& v) {
+    v("enabled", enabled);
+    v("k", k, schema::at_least(1));
+    v("std_ratio", std_ratio, schema::above(0));
+    v("min_spread", min_spread, schema::at_least(0));
+  }
 };
 
 /// Radius filter: removes points that have fewer than min_neighbors other points within `radius`.
 struct RadiusFilterOptions {
   double radius = 0.0;    ///< world units; 0 turns the filter off (the default)
   int min_neighbors = 4;  ///< other points required within `radius` to keep a point
+  template <class V>
+  void visit_fields(V& v) {
+    v("radius", radius, schema::at_least(0));
+    v("min_neighbors", min_neighbors, schema::at_least(1));
+  }
 };
 
 /// Voxel-grid thinning: one representative per occupied voxel (the input point nearest to the mean of
@@ -48,12 +62,20 @@ struct ThinningOptions {
   double voxel_size = 0.0;  ///< voxel edge, world units; 0 = no fixed grid (the default)
   std::size_t max_points =
       0;  ///< if > 0, the voxel grows (from voxel_size or diagonal/4096) until at most this many points remain
+  template <class V>
+  void visit_fields(V& v) {
+    v("voxel_size", voxel_size, schema::at_least(0));
+    v("max_points", max_points);
+  }
 };
 
 /// When WLOP runs in consolidate(): `automatic` runs it when noise is expected, i.e. unless
 /// WlopOptions::noise_hint is 0 (exact data); an unknown hint (negative) counts as noisy, as for any
 /// real scanner.
 enum class WlopMode { automatic, on, off };
+inline constexpr schema::EnumName<WlopMode> kWlopModeNames[] = {
+    {WlopMode::automatic, "automatic"}, {WlopMode::on, "on"}, {WlopMode::off, "off"}};
+constexpr std::span<const schema::EnumName<WlopMode>> enum_names(WlopMode) { return kWlopModeNames; }
 
 /// WLOP (Weighted Locally Optimal Projection, Huang et al. 2009), via CGAL. Outputs new points, a
 /// select_percentage % subset of the input count, denoised and evenly spread over the input.
@@ -68,6 +90,19 @@ struct WlopOptions {
   bool uniform_sampling = false;  ///< weight original points by their density (for very uneven input)
   bool parallel = true;           ///< CGAL::Parallel_tag (when CGAL is linked with TBB) or Sequential_tag
   std::uint64_t seed = 42;        ///< which input points become the initial samples
+  template <class V>
+  void visit_fields(V& v) {
+    v("mode", mode);
+    v("noise_hint", noise_hint);
+    v("select_percentage", select_percentage, schema::open_closed(0, 100));
+    v("radius", radius, schema::at_least(0));
+    v("radius_factor", radius_factor, schema::above(0));
+    v("spacing_k", spacing_k, schema::at_least(1));
+    v("iterations", iterations, schema::at_least(1));
+    v("uniform_sampling", uniform_sampling);
+    v("parallel", parallel);
+    v("seed", seed);
+  }
 };
 
 /// Jet projection (docs/consolidation.md): every point moves onto a weighted least-squares quadric
@@ -85,11 +120,23 @@ struct SmoothingOptions {
   int iterations = 2;        ///< passes over the input before WLOP
   bool project_wlop = true;  ///< project WLOP's output onto the jets of the smoothed input
   bool jet_normals = true;   ///< with project_wlop: the output's normals are the jets' (then oriented)
+  template <class V>
+  void visit_fields(V& v) {
+    v("enabled", enabled);
+    v("k", k, schema::at_least(6));
+    v("degree", degree, schema::closed(1, 2));
+    v("iterations", iterations, schema::at_least(0));
+    v("project_wlop", project_wlop);
+    v("jet_normals", jet_normals);
+  }
 };
 
 /// How normals are oriented. `automatic` uses the sensor positions when the cloud has the scalars
 /// sensor_x, sensor_y, sensor_z, and MST propagation otherwise.
 enum class Orientation { automatic, sensor, mst };
+inline constexpr schema::EnumName<Orientation> kOrientationNames[] = {
+    {Orientation::automatic, "automatic"}, {Orientation::sensor, "sensor"}, {Orientation::mst, "mst"}};
+constexpr std::span<const schema::EnumName<Orientation>> enum_names(Orientation) { return kOrientationNames; }
 
 struct NormalOptions {
   bool enabled = true;                               ///< run this step in consolidate()
@@ -98,6 +145,15 @@ struct NormalOptions {
   int mst_k = 16;                                    ///< neighbours of the MST fallback's Riemannian graph
   double mst_crossing_weight = 1.0;  ///< MST edge cost per unit of |n · edge direction| (edges leaving the surface)
   bool sheet_refinement = true;  ///< refit over neighbours with agreeing oriented normals (thin parts: one sheet each)
+  template <class V>
+  void visit_fields(V& v) {
+    v("enabled", enabled);
+    v("k", k, schema::at_least(3));
+    v("orientation", orientation);
+    v("mst_k", mst_k, schema::at_least(2));
+    v("mst_crossing_weight", mst_crossing_weight, schema::at_least(0));
+    v("sheet_refinement", sheet_refinement);
+  }
 };
 
 struct ConsolidateOptions {
@@ -107,6 +163,15 @@ struct ConsolidateOptions {
   SmoothingOptions smoothing;
   WlopOptions wlop;
   NormalOptions normals;
+  template <class V>
+  void visit_fields(V& v) {
+    v("outliers", outliers);
+    v("radius_filter", radius_filter);
+    v("thinning", thinning);
+    v("smoothing", smoothing);
+    v("wlop", wlop);
+    v("normals", normals);
+  }
 };
 
 struct OutlierReport {

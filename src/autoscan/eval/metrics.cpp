@@ -18,16 +18,10 @@
 #include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::eval {
-namespace {
 
-void check_options(const EvalOptions& o) {
-  AUTOSCAN_REQUIRE(std::isfinite(o.tau) && o.tau > 0, "evaluate: tau must be positive (got {})", o.tau);
-  AUTOSCAN_REQUIRE(o.samples > 0, "evaluate: samples must be positive");
-  AUTOSCAN_REQUIRE(o.histogram_bins >= 1 && o.histogram_bins <= 10000,
-                   "evaluate: histogram bins must be in [1, 10000] (got {})", o.histogram_bins);
-  AUTOSCAN_REQUIRE(std::isfinite(o.histogram_max) && o.histogram_max > 0,
-                   "evaluate: histogram_max must be positive (got {})", o.histogram_max);
-}
+void EvalOptions::validate(const std::string& what) const { schema::check(*this, what); }
+
+namespace {
 
 double truth_diagonal(const TriangleMesh& truth) {
   AUTOSCAN_REQUIRE(!truth.faces.empty(), "evaluate: the truth mesh has no faces");
@@ -156,7 +150,7 @@ nlohmann::json CloudEvalResult::to_json() const {
 }
 
 EvalResult evaluate_mesh(const TriangleMesh& recon, const TriangleMesh& truth, const EvalOptions& options) {
-  check_options(options);
+  options.validate();
   Stopwatch sw;
   EvalResult r;
   r.truth_diagonal = truth_diagonal(truth);
@@ -184,7 +178,7 @@ EvalResult evaluate_mesh(const TriangleMesh& recon, const TriangleMesh& truth, c
 }
 
 CloudEvalResult evaluate_cloud(const PointCloud& cloud, const TriangleMesh& truth, const EvalOptions& options) {
-  check_options(options);
+  options.validate();
   Stopwatch sw;
   CloudEvalResult r;
   r.truth_diagonal = truth_diagonal(truth);
@@ -209,7 +203,7 @@ double coverage(const PointCloud& scanned, const TriangleMesh& truth, double tau
   EvalOptions o;
   o.tau = tau;
   o.samples = samples;
-  check_options(o);
+  o.validate();
   const double tau_abs = tau * truth_diagonal(truth);
   scanned.validate("scanned point cloud");
   if (scanned.empty()) return 0.0;
@@ -222,7 +216,7 @@ CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& refere
   EvalOptions o;
   o.tau = tau;
   o.samples = samples;
-  check_options(o);
+  o.validate();
   scanned.validate("scanned point cloud");
   reference.validate("scannable reference cloud");
   const double tau_abs = tau * truth_diagonal(truth);

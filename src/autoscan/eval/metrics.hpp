@@ -21,6 +21,7 @@
 
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/schema.hpp"
 
 namespace autoscan::eval {
 
@@ -31,6 +32,16 @@ struct EvalOptions {
   int histogram_bins = 20;       ///< Figure 9: number of distance bins
   double histogram_max = 0.02;   ///< Figure 9: upper edge of the last bin, fraction of the diagonal
                                  ///< (farther samples are counted in `overflow`)
+  template <class V>
+  void visit_fields(V& v) {
+    v("tau", tau, schema::above(0));
+    v("samples", samples, schema::at_least(1));
+    v("seed", seed);
+    v("histogram_bins", histogram_bins, schema::closed(1, 10000));
+    v("histogram_max", histogram_max, schema::above(0));
+  }
+  /// Throws InputError naming the option for values out of range.
+  void validate(const std::string& what = "evaluate") const;
 };
 
 /// Summary of a set of distances (absolute units).

@@ -22,6 +22,7 @@
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,7 @@
 #include "autoscan/core/progress.hpp"
 #include "autoscan/core/rig.hpp"
 #include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/core/schema.hpp"
 #include "autoscan/core/types.hpp"
 
 namespace autoscan::nbv {
@@ -42,6 +44,9 @@ enum class FieldMethod {
   fast,       ///< cluster/block bounds, iso-points by decreasing weight, rays only for possible maxima
   reference,  ///< every candidate voxel x every iso-point, one visibility ray per pair
 };
+inline constexpr schema::EnumName<FieldMethod> kFieldMethodNames[] = {{FieldMethod::fast, "fast"},
+                                                                      {FieldMethod::reference, "reference"}};
+constexpr std::span<const schema::EnumName<FieldMethod>> enum_names(FieldMethod) { return kFieldMethodNames; }
 
 struct NbvOptions {
   int grid_resolution = 100;               ///< §5.1: voxels per axis of the search box B (paper: 100^3)
@@ -61,8 +66,24 @@ struct NbvOptions {
   int cluster_size = 32;                   ///< fast path: most iso-points per bounding cluster
   bool optimize_path = true;               ///< order views by nearest neighbour, then exact (<= 10 views) or 2-opt
 
+  template <class V>
+  void visit_fields(V& v) {
+    v("grid_resolution", grid_resolution, schema::closed(1, 1024));
+    v("sigma_deg", sigma_deg, schema::open(0, 180));
+    v("distance_width_factor", distance_width_factor, schema::above(0));
+    v("upsilon_radius_factor", upsilon_radius_factor, schema::at_least(0));
+    v("cells", cells, schema::at_least(1));
+    v("min_score", min_score, schema::at_least(0));
+    v("max_views", max_views, schema::at_least(0));
+    v("visibility_offset", visibility_offset, schema::at_least(0));
+    v("tolerance", tolerance, schema::open(0, 1e-6));
+    v("method", method);
+    v("block_size", block_size, schema::at_least(1));
+    v("cluster_size", cluster_size, schema::at_least(1));
+    v("optimize_path", optimize_path);
+  }
   /// Throws InputError naming the option for values out of range.
-  void validate() const;
+  void validate(const std::string& what = "nbv") const;
 };
 
 /// The voxel grid over the search box B: an oriented box (Z vertical, X-Y along the horizontal

@@ -12,23 +12,7 @@
 
 namespace autoscan::nbv {
 
-void NbvOptions::validate() const {
-  AUTOSCAN_REQUIRE(grid_resolution >= 1, "grid resolution must be at least 1 (got {})", grid_resolution);
-  AUTOSCAN_REQUIRE(grid_resolution <= 1024, "grid resolution {} is too large (at most 1024)", grid_resolution);
-  AUTOSCAN_REQUIRE(std::isfinite(sigma_deg) && sigma_deg > 0 && sigma_deg < 180,
-                   "sigma_deg must be in (0, 180) (got {})", sigma_deg);
-  AUTOSCAN_REQUIRE(std::isfinite(distance_width_factor) && distance_width_factor > 0,
-                   "distance_width_factor must be positive (got {})", distance_width_factor);
-  AUTOSCAN_REQUIRE(std::isfinite(upsilon_radius_factor) && upsilon_radius_factor >= 0,
-                   "upsilon_radius_factor must be >= 0 (got {})", upsilon_radius_factor);
-  AUTOSCAN_REQUIRE(cells >= 1, "cells must be at least 1 (got {})", cells);
-  AUTOSCAN_REQUIRE(std::isfinite(min_score) && min_score >= 0, "min_score must be >= 0 (got {})", min_score);
-  AUTOSCAN_REQUIRE(max_views >= 0, "max_views must be >= 0 (got {})", max_views);
-  AUTOSCAN_REQUIRE(std::isfinite(visibility_offset) && visibility_offset >= 0,
-                   "visibility_offset must be >= 0 (got {})", visibility_offset);
-  AUTOSCAN_REQUIRE(tolerance > 0 && tolerance < 1e-6, "tolerance must be in (0, 1e-6) (got {})", tolerance);
-  AUTOSCAN_REQUIRE(block_size >= 1 && cluster_size >= 1, "block_size and cluster_size must be >= 1");
-}
+void NbvOptions::validate(const std::string& what) const { schema::check(*this, what); }
 
 double view_weight(const Vec3& v, const Vec3& s, const Vec3& n_out, const ScannerSpec& scanner,
                    const NbvOptions& options) {

@@ -7,52 +7,6 @@
 
 namespace autoscan::planners::detail {
 
-// ---- Params -----------------------------------------------------------------------------------
-
-Params::Params(std::string planner, const nlohmann::json& params) : planner_(std::move(planner)), params_(params) {
-  AUTOSCAN_REQUIRE(params_.is_object() || params_.is_null(), "planner '{}': params must be a JSON object", planner_);
-  if (params_.is_null()) params_ = nlohmann::json::object();
-}
-
-double Params::number(const std::string& key, double def, double lo, double hi) {
-  used_.insert(key);
-  if (!params_.contains(key)) return def;
-  const auto& v = params_.at(key);
-  AUTOSCAN_REQUIRE(v.is_number(), "planner '{}': parameter '{}' must be a number", planner_, key);
-  const double x = v.get<double>();
-  AUTOSCAN_REQUIRE(std::isfinite(x) && x >= lo && x <= hi, "planner '{}': parameter '{}' = {} is outside [{}, {}]",
-                   planner_, key, x, lo, hi);
-  return x;
-}
-
-int Params::integer(const std::string& key, int def, int lo, int hi) {
-  used_.insert(key);
-  if (!params_.contains(key)) return def;
-  const auto& v = params_.at(key);
-  AUTOSCAN_REQUIRE(v.is_number_integer(), "planner '{}': parameter '{}' must be an integer", planner_, key);
-  const auto x = v.get<long long>();
-  AUTOSCAN_REQUIRE(x >= lo && x <= hi, "planner '{}': parameter '{}' = {} is outside [{}, {}]", planner_, key, x, lo,
-                   hi);
-  return static_cast<int>(x);
-}
-
-bool Params::boolean(const std::string& key, bool def) {
-  used_.insert(key);
-  if (!params_.contains(key)) return def;
-  const auto& v = params_.at(key);
-  AUTOSCAN_REQUIRE(v.is_boolean(), "planner '{}': parameter '{}' must be true or false", planner_, key);
-  return v.get<bool>();
-}
-
-void Params::finish() const {
-  for (const auto& [key, value] : params_.items()) {
-    if (used_.count(key)) continue;
-    std::string known;
-    for (const auto& k : used_) known += (known.empty() ? "" : ", ") + k;
-    throw InputError(fmt::format("planner '{}': unknown parameter '{}' (known: {})", planner_, key, known));
-  }
-}
-
 // ---- views ------------------------------------------------------------------------------------
 
 std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const Vec3& position, const Vec3& target) {

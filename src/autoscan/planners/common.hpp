@@ -1,40 +1,33 @@
 #pragma once
 // Shared helpers of the baseline planners (random, sphere, density, curvature, visibility, pvs):
-// parameter parsing with typo detection, placing a view so the rig can reach it with its target in
-// the working range, greedy selection with a minimum separation, and the nbv-field runner that the
+// parameter parsing (read_params), placing a view so the rig can reach it with its target in the
+// working range, greedy selection with a minimum separation, and the nbv-field runner that the
 // density and curvature planners share with ours. Their kd-tree is the spatial floor's
 // (spatial::KdTree, leaf size 16 as before).
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
+#include "autoscan/core/schema.hpp"
 #include "autoscan/nbv/nbv.hpp"
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::planners::detail {
 
-/// Reads a planner's `params` object. Every key must be consumed before finish(); an unknown key
-/// (a typo) is an InputError naming the planner and the key.
-class Params {
- public:
-  Params(std::string planner, const nlohmann::json& params);
-  /// A number in [lo, hi] (or the default when absent).
-  double number(const std::string& key, double def, double lo, double hi);
-  int integer(const std::string& key, int def, int lo, int hi);
-  bool boolean(const std::string& key, bool def);
-  /// Throws InputError for any key not read.
-  void finish() const;
-
- private:
-  std::string planner_;
-  nlohmann::json params_;
-  std::set<std::string> used_;
-};
+/// A planner's `params` object (null: none) read into its options struct T through T's field list
+/// (core/schema.hpp, docs/options.md): types and ranges checked, an unknown key (a typo) is an
+/// InputError naming the planner and the key.
+template <class T>
+T read_params(const std::string& planner, const nlohmann::json& params) {
+  T o;
+  const std::string what = "planner '" + planner + "'";
+  if (!params.is_null()) schema::read(params, o, what);
+  return o;
+}
 
 /// A pose at `position` looking at `target`, moved onto the rig's reach when the rig is a
 /// view_sphere (radial projection onto the sphere) or a turntable_arm (radius and height clamped

@@ -13,15 +13,7 @@
 namespace autoscan::planners {
 
 CurvaturePlannerOptions CurvaturePlannerOptions::from_json(const nlohmann::json& params) {
-  detail::Params p("curvature", params);
-  CurvaturePlannerOptions o;
-  o.radius_factor = p.number("radius_factor", o.radius_factor, 1e-6, 1.0);
-  o.reference_quantile = p.number("reference_quantile", o.reference_quantile, 0.0, 1.0);
-  o.min_reference = p.number("min_reference", o.min_reference, 1e-9, 1.0 / 3.0);
-  o.min_neighbors = p.integer("min_neighbors", o.min_neighbors, 3, 1000000);
-  o.missing_need = p.number("missing_need", o.missing_need, 0.0, 1.0);
-  p.finish();
-  return o;
+  return detail::read_params<CurvaturePlannerOptions>("curvature", params);
 }
 
 std::vector<double> surface_variation(const ModelState& state, const CurvaturePlannerOptions& options) {

@@ -10,6 +10,7 @@
 // (default 0: the planner is driven by curvature alone, as in the paper's comparison).
 #include <memory>
 
+#include "autoscan/core/schema.hpp"
 #include "autoscan/planners/planner.hpp"
 
 namespace autoscan::planners {
@@ -24,7 +25,15 @@ struct CurvaturePlannerOptions {
   double min_reference = 1e-4;      ///< sigma_ref is at least this (guards flat, noise-free input against 0/0)
   int min_neighbors = 6;            ///< fewer raw points within r: curvature unknown
   double missing_need = 0.0;        ///< need of iso-points whose curvature is unknown
-  /// Reads params with these names; unknown keys are an InputError.
+  template <class V>
+  void visit_fields(V& v) {
+    v("radius_factor", radius_factor, schema::closed(1e-6, 1.0));
+    v("reference_quantile", reference_quantile, schema::closed(0.0, 1.0));
+    v("min_reference", min_reference, schema::closed(1e-9, 1.0 / 3.0));
+    v("min_neighbors", min_neighbors, schema::closed(3, 1000000));
+    v("missing_need", missing_need, schema::closed(0.0, 1.0));
+  }
+  /// Reads params with these names (types and ranges checked); unknown keys are an InputError.
   static CurvaturePlannerOptions from_json(const nlohmann::json& params);
 };
 

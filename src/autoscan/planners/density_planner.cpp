@@ -11,12 +11,7 @@
 namespace autoscan::planners {
 
 DensityPlannerOptions DensityPlannerOptions::from_json(const nlohmann::json& params) {
-  detail::Params p("density", params);
-  DensityPlannerOptions o;
-  o.radius_factor = p.number("radius_factor", o.radius_factor, 1e-6, 1.0);
-  o.reference_quantile = p.number("reference_quantile", o.reference_quantile, 0.0, 1.0);
-  p.finish();
-  return o;
+  return detail::read_params<DensityPlannerOptions>("density", params);
 }
 
 std::vector<double> density_need(const ModelState& state, const DensityPlannerOptions& options) {

@@ -8,6 +8,7 @@
 // nbv planner receives the iso-points with f := 1 - need, so its field code is reused unchanged.
 #include <memory>
 
+#include "autoscan/core/schema.hpp"
 #include "autoscan/planners/planner.hpp"
 
 namespace autoscan::planners {
@@ -19,7 +20,12 @@ class NeedFieldRunner;
 struct DensityPlannerOptions {
   double radius_factor = 0.02;      ///< density kernel radius, times the acquired bounding-box diagonal
   double reference_quantile = 0.9;  ///< rho_ref = this quantile of the iso-points' densities
-  /// Reads params {"radius_factor", "reference_quantile"}; unknown keys are an InputError.
+  template <class V>
+  void visit_fields(V& v) {
+    v("radius_factor", radius_factor, schema::closed(1e-6, 1.0));
+    v("reference_quantile", reference_quantile, schema::closed(0.0, 1.0));
+  }
+  /// Reads params with these names (types and ranges checked); unknown keys are an InputError.
   static DensityPlannerOptions from_json(const nlohmann::json& params);
 };
 

@@ -25,17 +25,30 @@ namespace {
 /// treats iso-points in free voxels as confident (f = 1): a ray went through them, so no surface is
 /// there. Params: phantom_suppression (true), phantom_grid_resolution (128), phantom_stop_cells (2),
 /// max_rays_per_scan (30000).
+struct PoissonPlannerParams {
+  bool phantom_suppression = true;
+  int phantom_grid_resolution = 128;
+  double phantom_stop_cells = 2.0;
+  int max_rays_per_scan = 30000;
+  template <class V>
+  void visit_fields(V& v) {
+    v("phantom_suppression", phantom_suppression);
+    v("phantom_grid_resolution", phantom_grid_resolution, schema::closed(8, 512));
+    v("phantom_stop_cells", phantom_stop_cells, schema::closed(0, 100));
+    v("max_rays_per_scan", max_rays_per_scan, schema::closed(1, 100000000));
+  }
+};
+
 class PoissonPlanner final : public Planner {
  public:
   explicit PoissonPlanner(const PlannerOptions& options) : options_(options) {
     options_.nbv.validate();
     AUTOSCAN_REQUIRE(options_.params.is_object(), "planner 'poisson': params must be a JSON object");
-    detail::Params p("poisson", options_.params);
-    phantom_ = p.boolean("phantom_suppression", phantom_);
-    grid_resolution_ = p.integer("phantom_grid_resolution", grid_resolution_, 8, 512);
-    stop_cells_ = p.number("phantom_stop_cells", stop_cells_, 0.0, 100.0);
-    max_rays_ = p.integer("max_rays_per_scan", max_rays_, 1, 100000000);
-    p.finish();
+    const auto p = detail::read_params<PoissonPlannerParams>("poisson", options_.params);
+    phantom_ = p.phantom_suppression;
+    grid_resolution_ = p.phantom_grid_resolution;
+    stop_cells_ = p.phantom_stop_cells;
+    max_rays_ = p.max_rays_per_scan;
   }
   std::string name() const override { return "poisson"; }
 

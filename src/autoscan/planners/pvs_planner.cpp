@@ -12,18 +12,7 @@
 namespace autoscan::planners {
 
 PvsPlannerOptions PvsPlannerOptions::from_json(const nlohmann::json& params) {
-  detail::Params p("pvs", params);
-  PvsPlannerOptions o;
-  o.neighbors = p.integer("neighbors", o.neighbors, 3, 1000);
-  o.boundary_gap_deg = p.number("boundary_gap_deg", o.boundary_gap_deg, 1.0, 359.0);
-  o.cluster_radius_factor = p.number("cluster_radius_factor", o.cluster_radius_factor, 1e-6, 10.0);
-  o.cluster_direction_deg = p.number("cluster_direction_deg", o.cluster_direction_deg, 0.0, 180.0);
-  o.min_cluster_points = p.integer("min_cluster_points", o.min_cluster_points, 1, 100000000);
-  o.tilt_deg = p.number("tilt_deg", o.tilt_deg, 0.0, 90.0);
-  o.min_separation_factor = p.number("min_separation_factor", o.min_separation_factor, 0.0, 10.0);
-  o.max_points = p.integer("max_points", o.max_points, 1, 100000000);
-  p.finish();
-  return o;
+  return detail::read_params<PvsPlannerOptions>("pvs", params);
 }
 
 BoundaryPoints detect_boundary(const PointCloud& cloud, const PvsPlannerOptions& options) {

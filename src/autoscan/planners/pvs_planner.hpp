@@ -15,6 +15,7 @@
 // registration overlap, and the surface beyond it: Kriegel's "boundary + surface trend" view,
 // without their quadratic patch extrapolation). Clusters are chosen by size (k = NbvOptions::
 // max_views, positions at least min_separation_factor * d_o apart).
+#include "autoscan/core/schema.hpp"
 #include "autoscan/planners/planner.hpp"
 
 namespace autoscan::planners {
@@ -28,7 +29,18 @@ struct PvsPlannerOptions {
   double tilt_deg = 30.0;               ///< view direction tilted from the normal toward the unknown side
   double min_separation_factor = 0.15;  ///< chosen views at least this times d_o apart
   int max_points = 40000;               ///< at most this many points are tested (evenly strided)
-  /// Reads params with these names; unknown keys are an InputError.
+  template <class V>
+  void visit_fields(V& v) {
+    v("neighbors", neighbors, schema::closed(3, 1000));
+    v("boundary_gap_deg", boundary_gap_deg, schema::closed(1.0, 359.0));
+    v("cluster_radius_factor", cluster_radius_factor, schema::closed(1e-6, 10.0));
+    v("cluster_direction_deg", cluster_direction_deg, schema::closed(0.0, 180.0));
+    v("min_cluster_points", min_cluster_points, schema::closed(1, 100000000));
+    v("tilt_deg", tilt_deg, schema::closed(0.0, 90.0));
+    v("min_separation_factor", min_separation_factor, schema::closed(0.0, 10.0));
+    v("max_points", max_points, schema::closed(1, 100000000));
+  }
+  /// Reads params with these names (types and ranges checked); unknown keys are an InputError.
   static PvsPlannerOptions from_json(const nlohmann::json& params);
 };
 

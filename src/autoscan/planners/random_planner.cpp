@@ -6,14 +6,7 @@
 namespace autoscan::planners {
 
 RandomPlannerOptions RandomPlannerOptions::from_json(const nlohmann::json& params) {
-  detail::Params p("random", params);
-  RandomPlannerOptions o;
-  o.distance_jitter = p.number("distance_jitter", o.distance_jitter, 0.0, 0.5);
-  o.point_target_probability = p.number("point_target_probability", o.point_target_probability, 0.0, 1.0);
-  o.max_attempts = p.integer("max_attempts", o.max_attempts, 1, 1000000);
-  o.min_separation_factor = p.number("min_separation_factor", o.min_separation_factor, 0.0, 10.0);
-  p.finish();
-  return o;
+  return detail::read_params<RandomPlannerOptions>("random", params);
 }
 
 RandomPlanner::RandomPlanner(const PlannerOptions& options)

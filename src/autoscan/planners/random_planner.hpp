@@ -6,6 +6,7 @@
 // point_target_probability, at a random acquired point. Samples the rig cannot reach (after moving
 // them onto a view_sphere / into a turntable arm's bands) or whose target leaves [d_n, d_f] are
 // redrawn, at most max_attempts times per view. Seeded by the session's Rng: reproducible.
+#include "autoscan/core/schema.hpp"
 #include "autoscan/planners/planner.hpp"
 
 namespace autoscan::planners {
@@ -15,8 +16,14 @@ struct RandomPlannerOptions {
   double point_target_probability = 0.5;  ///< chance of aiming at a random acquired point, not the centre
   int max_attempts = 200;                 ///< draws per view before giving up on it
   double min_separation_factor = 0.1;     ///< views at least this times d_o apart
-  /// Reads params {"distance_jitter", "point_target_probability", "max_attempts",
-  /// "min_separation_factor"}; unknown keys are an InputError.
+  template <class V>
+  void visit_fields(V& v) {
+    v("distance_jitter", distance_jitter, schema::closed(0.0, 0.5));
+    v("point_target_probability", point_target_probability, schema::closed(0.0, 1.0));
+    v("max_attempts", max_attempts, schema::closed(1, 1000000));
+    v("min_separation_factor", min_separation_factor, schema::closed(0.0, 10.0));
+  }
+  /// Reads params with these names (types and ranges checked); unknown keys are an InputError.
   static RandomPlannerOptions from_json(const nlohmann::json& params);
 };
 

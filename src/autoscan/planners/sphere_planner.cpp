@@ -14,17 +14,7 @@
 namespace autoscan::planners {
 
 SpherePlannerOptions SpherePlannerOptions::from_json(const nlohmann::json& params) {
-  detail::Params p("sphere", params);
-  SpherePlannerOptions o;
-  o.grid_resolution = p.integer("grid_resolution", o.grid_resolution, 4, 512);
-  o.grid_margin = p.number("grid_margin", o.grid_margin, 0.0, 10.0);
-  o.candidates = p.integer("candidates", o.candidates, 1, 100000);
-  o.frustum_rays_x = p.integer("frustum_rays_x", o.frustum_rays_x, 1, 4096);
-  o.frustum_rays_y = p.integer("frustum_rays_y", o.frustum_rays_y, 1, 4096);
-  o.max_rays_per_scan = p.integer("max_rays_per_scan", o.max_rays_per_scan, 1, 100000000);
-  o.min_gain = p.integer("min_gain", o.min_gain, 1, 1000000000);
-  p.finish();
-  return o;
+  return detail::read_params<SpherePlannerOptions>("sphere", params);
 }
 
 // ---- SpherePlanner ----------------------------------------------------------------------------

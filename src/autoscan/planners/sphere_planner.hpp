@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "autoscan/core/schema.hpp"
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/spatial/occupancy_grid.hpp"
 
@@ -33,7 +34,17 @@ struct SpherePlannerOptions {
   int frustum_rays_y = 24;        ///< (vertical)
   int max_rays_per_scan = 30000;  ///< scans are subsampled (evenly, deterministic) to at most this many rays
   int min_gain = 1;               ///< views that would see fewer new unknown voxels are not proposed
-  /// Reads params with these names; unknown keys are an InputError.
+  template <class V>
+  void visit_fields(V& v) {
+    v("grid_resolution", grid_resolution, schema::closed(4, 512));
+    v("grid_margin", grid_margin, schema::closed(0.0, 10.0));
+    v("candidates", candidates, schema::closed(1, 100000));
+    v("frustum_rays_x", frustum_rays_x, schema::closed(1, 4096));
+    v("frustum_rays_y", frustum_rays_y, schema::closed(1, 4096));
+    v("max_rays_per_scan", max_rays_per_scan, schema::closed(1, 100000000));
+    v("min_gain", min_gain, schema::closed(1, 1000000000));
+  }
+  /// Reads params with these names (types and ranges checked); unknown keys are an InputError.
   static SpherePlannerOptions from_json(const nlohmann::json& params);
 };
 

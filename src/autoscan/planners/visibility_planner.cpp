@@ -12,18 +12,7 @@
 namespace autoscan::planners {
 
 VisibilityPlannerOptions VisibilityPlannerOptions::from_json(const nlohmann::json& params) {
-  detail::Params p("visibility", params);
-  VisibilityPlannerOptions o;
-  o.radius_factor = p.number("radius_factor", o.radius_factor, 1e-6, 1.0);
-  o.grazing_deg = p.number("grazing_deg", o.grazing_deg, 0.0, 90.0);
-  o.min_observations = p.integer("min_observations", o.min_observations, 0, 1000000);
-  o.cluster_radius_factor = p.number("cluster_radius_factor", o.cluster_radius_factor, 1e-6, 10.0);
-  o.cluster_normal_deg = p.number("cluster_normal_deg", o.cluster_normal_deg, 0.0, 180.0);
-  o.min_cluster_points = p.integer("min_cluster_points", o.min_cluster_points, 1, 100000000);
-  o.min_separation_factor = p.number("min_separation_factor", o.min_separation_factor, 0.0, 10.0);
-  o.max_points = p.integer("max_points", o.max_points, 1, 100000000);
-  p.finish();
-  return o;
+  return detail::read_params<VisibilityPlannerOptions>("visibility", params);
 }
 
 VisibilityRecord point_visibility(const ModelState& state, const PointCloud& cloud,

@@ -16,6 +16,7 @@
 // chosen greedily (k = NbvOptions::max_views, positions at least min_separation_factor * d_o apart).
 // The 2013 paper's per-point visibility from the sensor model is replaced by these recorded
 // observations; its surface-mesh step is not needed.
+#include "autoscan/core/schema.hpp"
 #include "autoscan/planners/planner.hpp"
 
 namespace autoscan::planners {
@@ -29,7 +30,18 @@ struct VisibilityPlannerOptions {
   int min_cluster_points = 5;           ///< smaller clusters propose no view
   double min_separation_factor = 0.15;  ///< chosen views at least this times d_o apart
   int max_points = 40000;               ///< the oriented cloud is subsampled evenly to this many points
-  /// Reads params with these names; unknown keys are an InputError.
+  template <class V>
+  void visit_fields(V& v) {
+    v("radius_factor", radius_factor, schema::closed(1e-6, 1.0));
+    v("grazing_deg", grazing_deg, schema::closed(0.0, 90.0));
+    v("min_observations", min_observations, schema::closed(0, 1000000));
+    v("cluster_radius_factor", cluster_radius_factor, schema::closed(1e-6, 10.0));
+    v("cluster_normal_deg", cluster_normal_deg, schema::closed(0.0, 180.0));
+    v("min_cluster_points", min_cluster_points, schema::closed(1, 100000000));
+    v("min_separation_factor", min_separation_factor, schema::closed(0.0, 10.0));
+    v("max_points", max_points, schema::closed(1, 100000000));
+  }
+  /// Reads params with these names (types and ranges checked); unknown keys are an InputError.
   static VisibilityPlannerOptions from_json(const nlohmann::json& params);
 };
 

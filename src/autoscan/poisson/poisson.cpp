@@ -911,29 +911,7 @@ std::shared_ptr<FieldData> Solver::run(const Vec3& origin, double width) {
 
 }  // namespace
 
-void PoissonOptions::validate() const {
-  const PoissonOptions& opt = *this;
-  AUTOSCAN_REQUIRE(opt.depth >= 2 && opt.depth <= 12, "poisson: depth {} out of range [2, 12]", opt.depth);
-  AUTOSCAN_REQUIRE(opt.full_depth >= 1 && opt.full_depth <= 8, "poisson: full_depth {} out of range [1, 8]",
-                   opt.full_depth);
-  AUTOSCAN_REQUIRE(std::isfinite(opt.screening) && opt.screening >= 0.0,
-                   "poisson: screening weight {} must be finite and >= 0", opt.screening);
-  AUTOSCAN_REQUIRE(std::isfinite(opt.normal_smoothing) && opt.normal_smoothing >= 0.0 && opt.normal_smoothing <= 0.25,
-                   "poisson: normal_smoothing {} out of range [0, 0.25]", opt.normal_smoothing);
-  AUTOSCAN_REQUIRE(std::isfinite(opt.samples_per_node) && opt.samples_per_node > 0.0,
-                   "poisson: samples_per_node {} must be > 0", opt.samples_per_node);
-  AUTOSCAN_REQUIRE(std::isfinite(opt.scale) && opt.scale >= 1.0 && opt.scale <= 16.0,
-                   "poisson: scale {} out of range [1, 16]", opt.scale);
-  AUTOSCAN_REQUIRE(opt.fine_iterations >= 1 && opt.fine_iterations <= 10000,
-                   "poisson: fine_iterations {} out of range [1, 10000]", opt.fine_iterations);
-  AUTOSCAN_REQUIRE(opt.vertex_refinement >= 0 && opt.vertex_refinement <= 20,
-                   "poisson: vertex_refinement {} out of range [0, 20]", opt.vertex_refinement);
-  AUTOSCAN_REQUIRE(opt.coarse_max_iterations >= 1, "poisson: coarse_max_iterations must be >= 1");
-  AUTOSCAN_REQUIRE(std::isfinite(opt.coarse_tolerance) && opt.coarse_tolerance > 0.0,
-                   "poisson: coarse_tolerance must be > 0");
-  AUTOSCAN_REQUIRE(std::isfinite(opt.trim) && opt.trim >= 0.0 && opt.trim < 1.0, "poisson: trim {} out of range [0, 1)",
-                   opt.trim);
-}
+void PoissonOptions::validate(const std::string& what) const { schema::check(*this, what); }
 
 PoissonResult reconstruct(const PointCloud& cloud, const PoissonOptions& opt, ProgressCallback progress) {
   Stopwatch total;

@@ -24,6 +24,7 @@
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/progress.hpp"
+#include "autoscan/core/schema.hpp"
 #include "autoscan/core/types.hpp"
 
 namespace autoscan::poisson {
@@ -55,9 +56,26 @@ struct PoissonOptions {
   double trim = 0.0;            ///< drop mesh vertices whose density is below this quantile, in [0, 1) (0 = keep all)
   std::size_t min_points = 10;  ///< fewer points than this is an InputError
 
+  template <class V>
+  void visit_fields(V& v) {
+    v("depth", depth, schema::closed(2, 12));
+    v("screening", screening, schema::at_least(0));
+    v("samples_per_node", samples_per_node, schema::above(0));
+    v("normal_smoothing", normal_smoothing, schema::closed(0, 0.25));
+    v("scale", scale, schema::closed(1, 16));
+    v("full_depth", full_depth, schema::closed(1, 8));
+    v("fine_iterations", fine_iterations, schema::closed(1, 10000));
+    v("coarse_max_iterations", coarse_max_iterations, schema::at_least(1));
+    v("coarse_tolerance", coarse_tolerance, schema::above(0));
+    v("weight_scalar", weight_scalar);
+    v("vertex_refinement", vertex_refinement, schema::closed(0, 20));
+    v("extract_mesh", extract_mesh);
+    v("trim", trim, schema::closed_open(0, 1));
+    v("min_points", min_points);
+  }
   /// Throws InputError naming the first option out of range (reconstruct() calls it; callers that
-  /// reconstruct later, like a simulation, call it before any work).
-  void validate() const;
+  /// reconstruct later, like a session or a simulation, call it before any work).
+  void validate(const std::string& what = "poisson") const;
 };
 
 /// Per-depth diagnostics.

@@ -21,25 +21,20 @@ double rotation_angle_deg(const Eigen::Isometry3d& T) {
   return std::acos(c) * 180.0 / std::numbers::pi;
 }
 
+void IcpOptions::validate(const std::string& what) const { schema::check(*this, what); }
+
 nlohmann::json to_json(const IcpResult& r) {
-  nlohmann::json m = nlohmann::json::array();
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) m.push_back(r.correction.matrix()(i, j));
-  return {{"method", r.method},
-          {"iterations", r.iterations},
-          {"converged", r.converged},
-          {"degenerate", r.degenerate},
-          {"uniform_weights", r.uniform_weights},
-          {"rms_before", r.rms_before},
-          {"rms_after", r.rms_after},
-          {"inlier_fraction", r.inlier_fraction},
-          {"correspondences", r.correspondences},
-          {"source_points_used", r.source_points_used},
-          {"correction_translation", r.correction_translation},
-          {"correction_rotation_deg", r.correction_rotation_deg},
-          {"correction", m},
-          {"max_correspondence_distance", r.max_correspondence_distance},
-          {"seconds", r.seconds}};
+  nlohmann::json j;
+  schema::write(r, j);
+  return j;
+}
+
+IcpResult icp_result_from_json(const nlohmann::json& j, const std::string& what) {
+  IcpResult r;
+  schema::read(j, r, what);
+  schema::check(r, what);
+  r.transform = r.correction;
+  return r;
 }
 
 namespace {
@@ -195,10 +190,7 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
                    "icp: {} source weights for {} source points", source_weights.size(), source.size());
   for (double w : source_weights)
     AUTOSCAN_REQUIRE(std::isfinite(w) && w >= 0.0, "icp: source weights must be finite and non-negative (got {})", w);
-  AUTOSCAN_REQUIRE(options.max_iterations >= 0, "icp: max_iterations must be >= 0");
-  AUTOSCAN_REQUIRE(options.max_correspondence_distance >= 0.0, "icp: max_correspondence_distance must be >= 0");
-  AUTOSCAN_REQUIRE(options.trim_fraction > 0.0 && options.trim_fraction <= 1.0, "icp: trim_fraction must be in (0, 1]");
-  AUTOSCAN_REQUIRE(options.damping >= 0.0, "icp: damping must be >= 0");
+  options.validate();
   AUTOSCAN_REQUIRE(initial.matrix().allFinite(), "icp: the initial transform is not finite");
 
   const bool plane = options.point_to_plane && target.has_normals();

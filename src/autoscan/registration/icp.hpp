@@ -16,6 +16,7 @@
 
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/progress.hpp"
+#include "autoscan/core/schema.hpp"
 
 namespace autoscan::registration {
 
@@ -43,6 +44,23 @@ struct IcpOptions {
   bool weights_are_precisions = false;
   double damping = 1e-9;  ///< Levenberg damping of the 6x6 normal equations (relative
                           ///< to their trace) against sliding along symmetric shapes
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("max_iterations", max_iterations, schema::at_least(0));
+    v("max_correspondence_distance", max_correspondence_distance, schema::at_least(0));
+    v("trim_fraction", trim_fraction, schema::open_closed(0, 1));
+    v("translation_tolerance", translation_tolerance, schema::at_least(0));
+    v("rotation_tolerance_deg", rotation_tolerance_deg, schema::at_least(0));
+    v("point_to_plane", point_to_plane);
+    v("allow_point_to_point", allow_point_to_point);
+    v("max_source_points", max_source_points);
+    v("min_correspondences", min_correspondences);
+    v("weights_are_precisions", weights_are_precisions);
+    v("damping", damping, schema::at_least(0));
+  }
+  /// Throws InputError naming the option for values out of range (icp() calls it).
+  void validate(const std::string& what = "icp") const;
 };
 
 struct IcpResult {
@@ -64,6 +82,28 @@ struct IcpResult {
   std::string method;                        ///< "point_to_plane" or "point_to_point"
   double max_correspondence_distance = 0.0;  ///< the threshold used
   double seconds = 0.0;
+
+  /// The JSON form (to_json below; a scan's "registration" in session.json): every field but
+  /// `transform`, which a reader sets to `correction` (the session's registrations start from the
+  /// identity).
+  template <class V>
+  void visit_fields(V& v) {
+    v("method", method);
+    v("iterations", iterations, schema::at_least(0));
+    v("converged", converged);
+    v("degenerate", degenerate);
+    v("uniform_weights", uniform_weights);
+    v("rms_before", rms_before);
+    v("rms_after", rms_after);
+    v("inlier_fraction", inlier_fraction);
+    v("correspondences", correspondences);
+    v("source_points_used", source_points_used);
+    v("correction_translation", correction_translation);
+    v("correction_rotation_deg", correction_rotation_deg);
+    v("correction", correction);
+    v("max_correspondence_distance", max_correspondence_distance);
+    v("seconds", seconds);
+  }
 };
 
 /// Registers `source` to `target`.
@@ -83,6 +123,9 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
 ///  "correspondences", "correction_translation", "correction_rotation_deg", "correction": 4x4 row-major,
 ///  "max_correspondence_distance", "seconds"}
 nlohmann::json to_json(const IcpResult& r);
+/// The inverse of to_json: fields present override the defaults (`transform` = `correction`); an
+/// unknown key, a wrong type or a non-finite number is an InputError naming `what`.
+IcpResult icp_result_from_json(const nlohmann::json& j, const std::string& what);
 
 /// Rotation angle of an isometry, in degrees.
 double rotation_angle_deg(const Eigen::Isometry3d& T);

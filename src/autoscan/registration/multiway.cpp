@@ -281,6 +281,7 @@ void MultiwayOptions::validate(const std::string& what) const {
                    "{}: robust_scale must be finite and >= 0 (got {})", what, robust_scale);
   AUTOSCAN_REQUIRE(std::isfinite(information_points) && information_points > 0.0,
                    "{}: information_points must be finite and positive (got {})", what, information_points);
+  icp.validate(what + ".icp");
 }
 
 namespace {

@@ -44,6 +44,15 @@ struct SurfaceFitOptions {
   int k_min = 20;
   int k_max = 400;
   int probe_k = 64;
+  /// The JSON keys (docs/options.md); the ranges are checked by validate().
+  template <class V>
+  void visit_fields(V& v) {
+    v("quadric", quadric);  // k: MultiwayOptions::normal_k
+    v("adaptive_factor", adaptive_factor);
+    v("k_min", k_min);
+    v("k_max", k_max);
+    v("probe_k", probe_k);
+  }
   /// Throws InputError naming the option for values out of range.
   void validate(const std::string& what = "surface") const;
 };
@@ -109,6 +118,29 @@ struct MultiwayOptions {
   /// Neighbouring points of a scan are not independent (shared calibration and smoothing errors).
   double information_points = 100.0;
   IcpOptions icp;  ///< pairwise ICP (max_correspondence_distance is set per round)
+
+  /// The JSON keys (docs/options.md); the ranges are checked by validate().
+  template <class V>
+  void visit_fields(V& v) {
+    v("robot_translation_sigma", robot_translation_sigma);
+    v("robot_rotation_sigma_deg", robot_rotation_sigma_deg);
+    v("min_overlap", min_overlap);
+    v("overlap_distance", overlap_distance);
+    v("sample_points", sample_points);
+    v("target_points", target_points);
+    v("normal_k", normal_k);
+    v("surface", surface);
+    v("max_incidence_deg", max_incidence_deg);
+    // incidence_gain: not listed; a session sets it from its scanner JSON (noise.depth_incidence_gain).
+    v("max_pairs_per_scan", max_pairs_per_scan);
+    v("rounds", rounds);
+    v("max_disagreement", max_disagreement);
+    v("outlier_sigma", outlier_sigma);
+    v("free_neighbors", free_neighbors);
+    v("robust_scale", robust_scale);
+    v("information_points", information_points);
+    v("icp", icp);
+  }
 
   /// Throws InputError naming the option for values out of range.
   void validate(const std::string& what = "multiway") const;

@@ -8,14 +8,9 @@
 
 namespace autoscan::scanner {
 
-void BlindScanOptions::validate() const {
-  AUTOSCAN_REQUIRE(views >= 1, "blind scan: views must be >= 1, got {}", views);
-  AUTOSCAN_REQUIRE(!elevations_deg.empty(), "blind scan: at least one elevation is needed");
-  for (double e : elevations_deg)
-    AUTOSCAN_REQUIRE(std::isfinite(e) && e >= -90 && e <= 90, "blind scan: elevation {} is outside [-90, 90]", e);
-  AUTOSCAN_REQUIRE(std::isfinite(distance) && distance >= 0 && distance <= kMaxCoordinate,
-                   "blind scan: distance must be in [0, {:g}], got {}", kMaxCoordinate, distance);
-  AUTOSCAN_REQUIRE(std::isfinite(azimuth_offset_deg), "blind scan: azimuth_offset_deg must be finite");
+void BlindScanOptions::validate(const std::string& what) const {
+  schema::check(*this, what);
+  AUTOSCAN_REQUIRE(!elevations_deg.empty(), "{}: at least one elevation is needed", what);
 }
 
 std::vector<Pose> blind_scan_poses(const AABB& object, const ScannerSpec& spec, const BlindScanOptions& options) {

@@ -3,12 +3,15 @@
 // on one or more rings around the object's bounding-box centre, at the optimal working distance
 // d_o = (near + far)/2 (paper §5.1), each looking at the centre, Z up.
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/pose.hpp"
 #include "autoscan/core/progress.hpp"
 #include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/core/schema.hpp"
+#include "autoscan/core/types.hpp"
 #include "autoscan/scanner/virtual_scanner.hpp"
 
 namespace autoscan::scanner {
@@ -19,9 +22,18 @@ struct BlindScanOptions {
   double distance = 0.0;                             ///< distance from the centre; 0 = the spec's d_o (Figure 2(b))
   double azimuth_offset_deg = 0.0;  ///< azimuth of the first view; ring k is staggered by half a step for odd k
   std::uint64_t first_scan_id = 0;  ///< scan ids are first_scan_id, first_scan_id + 1, ...
+  /// The JSON form (a simulation's "blind"): the poses' options; first_scan_id is not one (the
+  /// caller of blind_scan() numbers its scans).
+  template <class V>
+  void visit_fields(V& v) {
+    v("views", views, schema::at_least(1));
+    v("elevations_deg", elevations_deg, schema::closed(-90, 90));
+    v("distance", distance, schema::closed(0, kMaxCoordinate));
+    v("azimuth_offset_deg", azimuth_offset_deg);
+  }
   /// Throws InputError for views < 1, no rings, elevations outside [-90, 90], a negative,
   /// non-finite or larger than kMaxCoordinate distance.
-  void validate() const;
+  void validate(const std::string& what = "blind scan") const;
 };
 
 /// The blind-scan poses around `object` (in scan order: round-robin over the rings, increasing

@@ -2,10 +2,12 @@
 // The session's parameters: one struct holding every stage's options, persisted in session.json.
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 
 #include "autoscan/confidence/confidence.hpp"
 #include "autoscan/consolidate/consolidate.hpp"
+#include "autoscan/core/schema.hpp"
 #include "autoscan/nbv/nbv.hpp"
 #include "autoscan/poisson/poisson.hpp"
 #include "autoscan/registration/icp.hpp"
@@ -24,6 +26,13 @@ namespace autoscan::session {
 ///    denoised points are what the surface is fitted to, and their smoothness is what more scans
 ///    improve. On exact data both choices see the same surface and raw keeps the paper's figures.
 enum class SmoothnessPoints { automatic, raw, consolidated };
+inline constexpr schema::EnumName<SmoothnessPoints> kSmoothnessPointsNames[] = {
+    {SmoothnessPoints::automatic, "automatic"},
+    {SmoothnessPoints::raw, "raw"},
+    {SmoothnessPoints::consolidated, "consolidated"}};
+constexpr std::span<const schema::EnumName<SmoothnessPoints>> enum_names(SmoothnessPoints) {
+  return kSmoothnessPointsNames;
+}
 
 struct SessionOptions {
   /// Sessions accumulate millions of raw points; each reconstruction consolidates a voxel-thinned
@@ -34,13 +43,16 @@ struct SessionOptions {
   /// WLOP runs 10 iterations instead of CGAL's 35: on the accumulated scans of bunny00 (noise 0.5,
   /// 2.2 M points thinned to 100k) both give the same accuracy against the truth (mean 0.00287 vs
   /// 0.00286, p90 0.0071 both) and 10 takes a third of the time.
-  SessionOptions() {
-    consolidate.thinning.max_points = 200000;
-    consolidate.wlop.iterations = 10;
-  }
-  std::string planner = "poisson";                                   ///< planners::make_planner name
-  nlohmann::json planner_params = nlohmann::json::object();          ///< planner-specific settings
-  consolidate::ConsolidateOptions consolidate;                       ///< §4.1 thinning, outliers, WLOP, normals
+  ///
+  /// (An aggregate, without a constructor, so that tests/session can count its fields.)
+  std::string planner = "poisson";                           ///< planners::make_planner name
+  nlohmann::json planner_params = nlohmann::json::object();  ///< planner-specific settings
+  consolidate::ConsolidateOptions consolidate = [] {         ///< §4.1 thinning, outliers, WLOP, normals
+    consolidate::ConsolidateOptions c;
+    c.thinning.max_points = 200000;
+    c.wlop.iterations = 10;
+    return c;
+  }();
   poisson::PoissonOptions poisson;                                   ///< §4.1 screened Poisson (depth, screening...)
   confidence::ConfidenceOptions confidence;                          ///< §4.2, Eq. 1-3 (K = 100)
   SmoothnessPoints smoothness_points = SmoothnessPoints::automatic;  ///< Q of Eq. 2 (see SmoothnessPoints)
@@ -87,14 +99,43 @@ struct SessionOptions {
   int max_views = 200;      ///< budget of planned views over the session (Table 2: up to ~200)
   std::uint64_t seed = 42;  ///< seeds selective insertion and the planner's stream
 
-  /// Throws InputError naming the option for values out of range.
-  void validate() const;
+  /// The session config, session.json's "params" and a simulation's "session" (docs/options.md).
+  template <class V>
+  void visit_fields(V& v) {
+    v("planner", planner);
+    v("planner_params", planner_params);
+    v("consolidate", consolidate);
+    v("poisson", poisson);
+    v("confidence", confidence);
+    v("smoothness_points", smoothness_points);
+    v("nbv", nbv);
+    v("icp", icp);
+    v("register_scans", register_scans);
+    v("global_registration", global_registration);
+    v("multiway", multiway);
+    v("registration_min_improvement", registration_min_improvement, schema::closed_open(0, 1));
+    v("registration_max_translation", registration_max_translation, schema::at_least(0));
+    v("registration_max_rotation_deg", registration_max_rotation_deg, schema::at_least(0));
+    v("selective_insertion", selective_insertion);
+    v("rho", rho, schema::at_least(0));
+    v("quality_weights", quality_weights);
+    v("quality_insertion_ratio", quality_insertion_ratio, schema::at_least(1).or_zero());
+    v("stop_threshold", stop_threshold, schema::at_least(0));
+    v("stop_when_confidence_falls", stop_when_confidence_falls);
+    v("max_iterations", max_iterations, schema::at_least(1));
+    v("max_views", max_views, schema::at_least(0));
+    v("seed", seed);
+  }
+  /// Throws InputError naming the option for values out of range, in every stage's options
+  /// (Session::create calls it: bad options are refused before any scan is acknowledged).
+  void validate(const std::string& what = "options") const;
 };
 
 /// SessionOptions as JSON (every field, nested option structs included) and back. Missing fields
 /// keep their defaults; unknown fields are an InputError naming them (typos must not pass silently).
 nlohmann::json to_json(const SessionOptions& o);
-/// Applies the fields present in `j` onto `base`.
+/// Applies the fields present in `j` onto `base` and validates the result; errors name `what` (the
+/// file) and the option ("config.json: poisson.depth must be in [2, 12] (got 99)").
 SessionOptions session_options_from_json(const nlohmann::json& j, SessionOptions base = {},
                                          const std::string& what = "config");
 

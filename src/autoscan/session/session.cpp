@@ -325,35 +325,9 @@ ScanRecord scan_from_json(const json& j, const std::string& what, int expected_i
     }
   }
   if (j.contains("registration") && !object_or_null(j.at("registration"), what + ".registration").is_null()) {
-    const auto& g = j.at("registration");
     const std::string w = what + ".registration";
-    auto num = [&](const char* key) {
-      return g.contains(key) ? number_in(g.at(key), w + "." + key, -kInf, kInf) : 0.0;
-    };
-    auto count = [&](const char* key) {
-      return g.contains(key) ? static_cast<std::size_t>(integer_in(g.at(key), w + "." + key, 0, kMaxCount))
-                             : std::size_t{0};
-    };
-    auto flag = [&](const char* key) { return g.contains(key) ? boolean(g.at(key), w + "." + key) : false; };
-    registration::IcpResult ir;
-    ir.method = g.contains("method") ? string_or_null(g.at("method"), w + ".method") : "";
-    ir.iterations =
-        g.contains("iterations") ? static_cast<int>(integer_in(g.at("iterations"), w + ".iterations", 0, INT_MAX)) : 0;
-    ir.converged = flag("converged");
-    ir.degenerate = flag("degenerate");
-    ir.uniform_weights = flag("uniform_weights");
-    ir.rms_before = num("rms_before");
-    ir.rms_after = num("rms_after");
-    ir.inlier_fraction = num("inlier_fraction");
-    ir.correspondences = count("correspondences");
-    ir.source_points_used = count("source_points_used");
-    ir.correction_translation = num("correction_translation");
-    ir.correction_rotation_deg = num("correction_rotation_deg");
-    ir.max_correspondence_distance = num("max_correspondence_distance");
-    ir.seconds = num("seconds");
-    ir.correction = matrix_from_json(member(g, "correction", w), w + ".correction");
-    ir.transform = ir.correction;
-    r.registration = ir;
+    member(j.at("registration"), "correction", w);  // required; the other fields default to 0
+    r.registration = registration::icp_result_from_json(j.at("registration"), w);
   }
   return r;
 }

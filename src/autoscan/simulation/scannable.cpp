@@ -25,11 +25,9 @@ Pose looking_at(const Vec3& position, const Vec3& target) {
 
 }  // namespace
 
-void ScannableOptions::validate() const {
-  AUTOSCAN_REQUIRE(surface_views >= 0 && sphere_views >= 0 && surface_views + sphere_views > 0,
-                   "scannable_options: need at least one view");
-  AUTOSCAN_REQUIRE(resolution_divisor >= 1 && resolution_divisor <= 16,
-                   "scannable_options: resolution_divisor {} out of range [1, 16]", resolution_divisor);
+void ScannableOptions::validate(const std::string& what) const {
+  schema::check(*this, what);
+  AUTOSCAN_REQUIRE(surface_views + sphere_views > 0, "{}: need at least one view", what);
 }
 
 ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,

@@ -13,11 +13,13 @@
 // (eval::coverage_split). Surfaces left out are those no such view captures: deep concavities,
 // triangulation shadows, the underside a turntable rig cannot see.
 #include <cstdint>
+#include <string>
 
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/rig.hpp"
 #include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/core/schema.hpp"
 
 namespace autoscan::simulation {
 
@@ -26,8 +28,15 @@ struct ScannableOptions {
   int sphere_views = 42;       ///< views on the d_o sphere around the centre (icosphere vertices: 12, 42, 162)
   int resolution_divisor = 2;  ///< camera resolution / this (the reference needs spacing < τ, not detail)
   std::uint64_t seed = 7;      ///< which surface samples
+  template <class V>
+  void visit_fields(V& v) {
+    v("surface_views", surface_views, schema::at_least(0));
+    v("sphere_views", sphere_views, schema::at_least(0));
+    v("resolution_divisor", resolution_divisor, schema::closed(1, 16));
+    v("seed", seed);
+  }
   /// Throws InputError for no views at all or a resolution_divisor outside [1, 16].
-  void validate() const;
+  void validate(const std::string& what = "scannable_options") const;
 };
 
 struct ScannableReference {

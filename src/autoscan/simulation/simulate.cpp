@@ -22,103 +22,41 @@ namespace autoscan::simulation {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-void SimulateOptions::validate() const {
-  session.validate();
-  session.poisson.validate();  // before the blind scan, not after it (a depth of 99 fails at once)
+void SimulateOptions::validate(const std::string& what) const {
+  // The stages' options with their own names ("poisson: depth ..."), as the CLI's flags set them.
+  session.validate();  // every stage's options, Poisson's included: a depth of 99 fails before the blind scan
   scanner.validate("scanner");
   rig.validate("rig");
   blind.validate();
-  AUTOSCAN_REQUIRE(eval.tau > 0 && eval.samples > 0, "evaluation: tau and samples must be positive");
+  eval.validate("evaluation");
   scannable_options.validate();
-  for (int c : checkpoints) AUTOSCAN_REQUIRE(c > 0, "checkpoints: view budgets must be positive, got {}", c);
+  schema::check(*this, what);  // the rest (checkpoints)
 }
 
 json to_json(const SimulateOptions& o) {
-  return {{"session", session::to_json(o.session)},
-          {"scanner", autoscan::to_json(o.scanner)},
-          {"rig", autoscan::to_json(o.rig)},
-          {"blind",
-           {{"views", o.blind.views},
-            {"elevations_deg", o.blind.elevations_deg},
-            {"distance", o.blind.distance},
-            {"azimuth_offset_deg", o.blind.azimuth_offset_deg}}},
-          {"normalize", o.normalize},
-          {"evaluate", o.evaluate},
-          {"eval",
-           {{"tau", o.eval.tau},
-            {"samples", o.eval.samples},
-            {"seed", o.eval.seed},
-            {"histogram_bins", o.eval.histogram_bins},
-            {"histogram_max", o.eval.histogram_max}}},
-          {"checkpoints", o.checkpoints},
-          {"scannable", o.scannable},
-          {"scannable_options",
-           {{"surface_views", o.scannable_options.surface_views},
-            {"sphere_views", o.scannable_options.sphere_views},
-            {"resolution_divisor", o.scannable_options.resolution_divisor},
-            {"seed", o.scannable_options.seed}}},
-          {"scannable_cache", o.scannable_cache.string()},
-          {"report", o.report}};
+  json j;
+  schema::write(o, j);
+  j["scanner"] = autoscan::to_json(o.scanner);
+  j["rig"] = autoscan::to_json(o.rig);
+  return j;
 }
 
 SimulateOptions simulate_options_from_json(const json& j, SimulateOptions o, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: must be a JSON object", what);
-  static const std::set<std::string> known = {
-      "session",         "scanner", "rig",         "blind",     "normalize",
-      "evaluate",        "eval",    "checkpoints", "scannable", "scannable_options",
-      "scannable_cache", "report"};
-  for (const auto& [k, v] : j.items())
-    AUTOSCAN_REQUIRE(known.count(k),
-                     "{}: unknown field '{}' (known: session, scanner, rig, blind, normalize, "
-                     "evaluate, eval, checkpoints, scannable, scannable_options, scannable_cache, report)",
-                     what, k);
-  try {
-    if (j.contains("session"))
-      o.session = session::session_options_from_json(j["session"], o.session, what + ".session");
-    if (j.contains("scanner")) {
-      json merged = autoscan::to_json(o.scanner);
-      merged.merge_patch(j["scanner"]);
-      o.scanner = scanner_from_json(merged, what + ".scanner");
-    }
-    if (j.contains("rig")) {
-      json merged = autoscan::to_json(o.rig);
-      merged.merge_patch(j["rig"]);
-      o.rig = rig_from_json(merged, what + ".rig");
-    }
-    if (j.contains("blind")) {
-      const auto& b = j["blind"];
-      AUTOSCAN_REQUIRE(b.is_object(), "{}.blind: must be an object", what);
-      o.blind.views = b.value("views", o.blind.views);
-      o.blind.elevations_deg = b.value("elevations_deg", o.blind.elevations_deg);
-      o.blind.distance = b.value("distance", o.blind.distance);
-      o.blind.azimuth_offset_deg = b.value("azimuth_offset_deg", o.blind.azimuth_offset_deg);
-    }
-    o.normalize = j.value("normalize", o.normalize);
-    o.evaluate = j.value("evaluate", o.evaluate);
-    o.report = j.value("report", o.report);
-    if (j.contains("eval")) {
-      const auto& e = j["eval"];
-      AUTOSCAN_REQUIRE(e.is_object(), "{}.eval: must be an object", what);
-      o.eval.tau = e.value("tau", o.eval.tau);
-      o.eval.samples = e.value("samples", o.eval.samples);
-      o.eval.seed = e.value("seed", o.eval.seed);
-      o.eval.histogram_bins = e.value("histogram_bins", o.eval.histogram_bins);
-      o.eval.histogram_max = e.value("histogram_max", o.eval.histogram_max);
-    }
-    if (j.contains("checkpoints")) o.checkpoints = j["checkpoints"].get<std::vector<int>>();
-    o.scannable = j.value("scannable", o.scannable);
-    if (j.contains("scannable_options")) {
-      const auto& e = j["scannable_options"];
-      AUTOSCAN_REQUIRE(e.is_object(), "{}.scannable_options: must be an object", what);
-      o.scannable_options.surface_views = e.value("surface_views", o.scannable_options.surface_views);
-      o.scannable_options.sphere_views = e.value("sphere_views", o.scannable_options.sphere_views);
-      o.scannable_options.resolution_divisor = e.value("resolution_divisor", o.scannable_options.resolution_divisor);
-      o.scannable_options.seed = e.value("seed", o.scannable_options.seed);
-    }
-    o.scannable_cache = j.value("scannable_cache", o.scannable_cache.string());
-  } catch (const json::exception& e) {
-    throw InputError(fmt::format("{}: {}", what, e.what()));
+  json rest = j;
+  if (rest.contains("scanner")) {
+    json merged = autoscan::to_json(o.scanner);
+    merged.merge_patch(rest["scanner"]);
+    o.scanner = scanner_from_json(merged, what + ".scanner");
+    rest.erase("scanner");
   }
+  if (rest.contains("rig")) {
+    json merged = autoscan::to_json(o.rig);
+    merged.merge_patch(rest["rig"]);
+    o.rig = rig_from_json(merged, what + ".rig");
+    rest.erase("rig");
+  }
+  schema::read(rest, o, what);
   o.validate();
   return o;
 }

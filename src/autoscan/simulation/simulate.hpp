@@ -32,9 +32,11 @@ struct SimulateOptions {
   /// virtual scans closer to where they belong (mean 0.00333 -> 0.00344) and the F-score at 40 views
   /// fell from 0.949 to 0.805 (docs/benchmarks.md, "Global registration"). It stays on for a session
   /// a real robot drives, where it helps (real dragon_stand scans: 1.16 mm -> 0.23 mm).
-  SimulateOptions() { session.global_registration = false; }
-  session::SessionOptions session;  ///< planner, stage options, budgets (max_views, max_iterations), seed;
-                                    ///< the model is thinned to at most 200k points per iteration
+  session::SessionOptions session = [] {  ///< planner, stage options, budgets (max_views, max_iterations),
+    session::SessionOptions o;            ///< seed; the model is thinned to at most 200k points per iteration
+    o.global_registration = false;
+    return o;
+  }();
   ScannerSpec scanner;              ///< the virtual scanner (noise included)
   Rig rig;                          ///< which poses the robot reaches
   scanner::BlindScanOptions blind;  ///< the initial all-round scan (Figure 2(b))
@@ -50,7 +52,23 @@ struct SimulateOptions {
   std::filesystem::path scannable_cache;
   bool report = true;  ///< write report.html at the end
 
-  void validate() const;
+  /// The JSON form (a --config file, simulation.json's "options"; docs/options.md). `scanner` and
+  /// `rig` are not in the list: they keep their own JSON readers (core/scanner_spec.hpp, rig.hpp),
+  /// applied as a merge patch onto the base by simulate_options_from_json.
+  template <class V>
+  void visit_fields(V& v) {
+    v("session", session);
+    v("blind", blind);
+    v("normalize", normalize);
+    v("evaluate", evaluate);
+    v("eval", eval);
+    v("checkpoints", checkpoints, schema::at_least(1));
+    v("scannable", scannable);
+    v("scannable_options", scannable_options);
+    v("scannable_cache", scannable_cache);
+    v("report", report);
+  }
+  void validate(const std::string& what = "simulation") const;
 };
 
 nlohmann::json to_json(const SimulateOptions& o);
