@@ -103,8 +103,8 @@ struct MultiwayOptions {
   /// late overlaps more and more of the earlier ones; registering it to all of them makes an
   /// iteration's cost grow with the number of scans (measured on armadillo at noise 0.5, 40 views:
   /// 47, 70, 76, 120 pairs in iterations 1-4, registration half of the loop's time). Its best few
-  /// partners hold it as firmly (docs/registration.md, "Cost").
-  int max_pairs_per_scan = 6;
+  /// partners should hold it as firmly; 0 (the default until that is measured) keeps every pair.
+  int max_pairs_per_scan = 0;
   int rounds = 3;                 ///< pairwise ICP + graph solve rounds
   double max_disagreement = 3.0;  ///< drop a pair whose implied displacement exceeds this × its RMS
   double outlier_sigma = 5.0;     ///< flag a scan whose correction is beyond this many σ (Mahalanobis)

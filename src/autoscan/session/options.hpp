@@ -82,13 +82,14 @@ struct SessionOptions {
   /// scanner's noise model predicts for it (ScannerSpec::relative_depth_sigma: range and incidence;
   /// the model point column `depth_sigma_rel`). When true the screened Poisson solve weighs each
   /// consolidated sample by the precision (1/σ²) of the raw points it stands for, normalised to a
-  /// mean of 1 (unless poisson.weight_scalar names a column of its own).
-  bool quality_weights = true;
+  /// mean of 1 (unless poisson.weight_scalar names a column of its own). Off by default until it is
+  /// measured to help: armadillo at noise 0.5 (docs/fusion.md) gave the same accuracy with and without.
+  bool quality_weights = false;
   /// Selective insertion by quality (with Eq. 6): a new point whose predicted σ exceeds this many
   /// times that of the model's surface where it lands (the nearest consolidated point within two
   /// sample spacings) is not inserted: a region already measured better is neither displaced nor
-  /// blurred by a worse measurement. 0 = off.
-  double quality_insertion_ratio = 2.0;
+  /// blurred by a worse measurement. 0 = off (the default, as quality_weights; 2 is the suggested value).
+  double quality_insertion_ratio = 0.0;
   double stop_threshold = 0.005;  ///< §5.3: stop when |mean f_k − mean f_{k−1}| < this (paper: 0.005)
   /// ... and (when true) also when the mean confidence falls by at least stop_threshold. Off by
   /// default: small falls are common while the model grows (the demo fell 0.888 → 0.882 between two
