@@ -132,6 +132,11 @@ struct SessionOptions {
   void validate(const std::string& what = "options") const;
 };
 
+/// The session.json `params` of an older version with the keys that are no longer options removed:
+/// `multiway.incidence_gain` (a session takes it from its scanner JSON since 2026-12-02). Only for
+/// reading session.json; a config naming such a key is refused as unknown.
+nlohmann::json without_legacy_options(nlohmann::json params);
+
 /// SessionOptions as JSON (every field, nested option structs included) and back. Missing fields
 /// keep their defaults; unknown fields are an InputError naming them (typos must not pass silently).
 nlohmann::json to_json(const SessionOptions& o);

@@ -387,7 +387,7 @@ SessionFile parse_session_json(std::string_view text, const std::string& where) 
       AUTOSCAN_REQUIRE(j.contains(key), "{}: missing '{}'", where, key);
     out.scanner = scanner_from_json(j.at("scanner"), where + ": scanner");
     out.rig = rig_from_json(j.at("rig"), where + ": rig");
-    out.options = session_options_from_json(j.at("params"), {}, where + ": params");
+    out.options = session_options_from_json(without_legacy_options(j.at("params")), {}, where + ": params");
     out.options.validate();
     if (j.contains("current_pose") && !j.at("current_pose").is_null())
       out.current_pose = pose_from_json(j.at("current_pose"), where + ": current_pose");
