@@ -537,6 +537,8 @@ struct Session::Impl {
     planner = planners::make_planner(options.planner, po);
   }
 
+  bool fusion_on() const { return options.quality_weights || options.quality_insertion_ratio > 0.0; }
+
   bool has_model() const { return !iterations.empty() && !target.empty(); }
 
   // Sets the registration target and Eq. 6's look-up from a reconstruction.
@@ -838,7 +840,10 @@ Session Session::open(const fs::path& dir) {
     AUTOSCAN_REQUIRE(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1)) == rec.inserted,
                      "{}: insertion flags disagree with session.json", file.string());
     // As add_scan computed it (a session written before quality-weighted fusion has no column).
-    if (!scan.empty()) scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, impl->scanner));
+    if (!scan.empty() && impl->fusion_on())
+      scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, impl->scanner));
+    else
+      scan.scalars.erase(kDepthSigmaColumn);
     PointCloud registered = scan;
     apply_transform(registered, rec.correction);
     if (impl->planner) {
@@ -913,8 +918,9 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
     scan.scalars.set("sensor_y", std::vector<double>(scan.size(), s.y()));
     scan.scalars.set("sensor_z", std::vector<double>(scan.size(), s.z()));
   }
-  // The depth uncertainty the scanner's model predicts for each point (docs/fusion.md).
-  scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, m.scanner));
+  // The depth uncertainty the scanner's model predicts for each point (docs/fusion.md), only when
+  // fusion uses it: off, add_scan does no extra work.
+  if (m.fusion_on()) scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, m.scanner));
   std::vector<char> keep;
   PointCloud registered = m.register_and_select(scan, rec, keep);
   rec.added_correction = rec.correction;
