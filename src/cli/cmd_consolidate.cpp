@@ -33,6 +33,62 @@ struct ConsolidateCli {
   bool ascii = false;
 };
 
+// The library's options from the command line's.
+autoscan::consolidate::ConsolidateOptions options_of(const ConsolidateCli& c) {
+  using namespace autoscan;
+  namespace ac = autoscan::consolidate;
+  ac::ConsolidateOptions opt;
+  opt.outliers.enabled = !c.no_outliers;
+  opt.outliers.k = c.k;
+  opt.outliers.std_ratio = c.outlier_std;
+  opt.normals.k = c.k;
+  opt.radius_filter.radius = c.radius;
+  opt.radius_filter.min_neighbors = c.min_neighbors;
+  opt.thinning.voxel_size = c.voxel;
+  opt.thinning.max_points = c.max_points;
+  opt.wlop.mode = c.wlop ? ac::WlopMode::on : c.no_wlop ? ac::WlopMode::off : ac::WlopMode::automatic;
+  if (c.noise) {
+    AUTOSCAN_REQUIRE(*c.noise >= 0 && *c.noise <= 1, "--noise must be in [0, 1], got {}", *c.noise);
+    opt.wlop.noise_hint = *c.noise;
+  }
+  opt.wlop.select_percentage = c.wlop_percentage;
+  opt.wlop.iterations = c.wlop_iterations;
+  opt.wlop.radius = c.wlop_radius;
+  opt.wlop.seed = c.seed;
+  if (c.orientation == "auto")
+    opt.normals.orientation = ac::Orientation::automatic;
+  else if (c.orientation == "sensor")
+    opt.normals.orientation = ac::Orientation::sensor;
+  else if (c.orientation == "mst")
+    opt.normals.orientation = ac::Orientation::mst;
+  else
+    throw InputError(fmt::format("--orientation: '{}' is not one of auto, sensor, mst", c.orientation));
+  return opt;
+}
+
+// The --json summary.
+nlohmann::json summary_of(const ConsolidateCli& c, const autoscan::consolidate::ConsolidateResult& res) {
+  nlohmann::json seconds = nlohmann::json::object();
+  for (const auto& t : res.timings) seconds[t.step] = t.seconds;
+  return {{"cloud", c.cloud},
+          {"out", c.out},
+          {"points_in", res.points_in},
+          {"points_out", res.points_out},
+          {"outliers_removed", res.outliers.removed},
+          {"outlier_threshold", res.outliers.threshold},
+          {"radius_removed", res.radius_removed},
+          {"thinned", res.thinning.removed},
+          {"voxel_size", res.thinning.voxel_size},
+          {"wlop",
+           {{"applied", res.wlop.applied},
+            {"points_out", res.wlop.points_out},
+            {"radius", res.wlop.radius},
+            {"parallel", res.wlop.parallel}}},
+          {"orientation", autoscan::consolidate::to_string(res.normals.orientation)},
+          {"seconds", seconds},
+          {"total_seconds", res.total_seconds}};
+}
+
 }  // namespace
 
 AUTOSCAN_CLI_COMMAND(consolidate, 40, [](CLI::App& root, autoscan::cli::Globals& g) {
@@ -82,33 +138,7 @@ AUTOSCAN_CLI_COMMAND(consolidate, 40, [](CLI::App& root, autoscan::cli::Globals&
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
     AUTOSCAN_REQUIRE(ext == ".ply", "{}: the consolidated cloud is written as PLY; use a .ply name (--out)", o->out);
 
-    ac::ConsolidateOptions opt;
-    opt.outliers.enabled = !o->no_outliers;
-    opt.outliers.k = o->k;
-    opt.outliers.std_ratio = o->outlier_std;
-    opt.normals.k = o->k;
-    opt.radius_filter.radius = o->radius;
-    opt.radius_filter.min_neighbors = o->min_neighbors;
-    opt.thinning.voxel_size = o->voxel;
-    opt.thinning.max_points = o->max_points;
-    opt.wlop.mode = o->wlop ? ac::WlopMode::on : o->no_wlop ? ac::WlopMode::off : ac::WlopMode::automatic;
-    if (o->noise) {
-      AUTOSCAN_REQUIRE(*o->noise >= 0 && *o->noise <= 1, "--noise must be in [0, 1], got {}", *o->noise);
-      opt.wlop.noise_hint = *o->noise;
-    }
-    opt.wlop.select_percentage = o->wlop_percentage;
-    opt.wlop.iterations = o->wlop_iterations;
-    opt.wlop.radius = o->wlop_radius;
-    opt.wlop.seed = o->seed;
-    if (o->orientation == "auto")
-      opt.normals.orientation = ac::Orientation::automatic;
-    else if (o->orientation == "sensor")
-      opt.normals.orientation = ac::Orientation::sensor;
-    else if (o->orientation == "mst")
-      opt.normals.orientation = ac::Orientation::mst;
-    else
-      throw InputError(fmt::format("--orientation: '{}' is not one of auto, sensor, mst", o->orientation));
-
+    const ac::ConsolidateOptions opt = options_of(*o);
     const PointCloud raw = io::read_point_cloud(o->cloud);
     ac::ConsolidateResult res;
     try {
@@ -120,25 +150,7 @@ AUTOSCAN_CLI_COMMAND(consolidate, 40, [](CLI::App& root, autoscan::cli::Globals&
     wo.ascii = o->ascii;
     io::write_point_cloud(o->out, res.cloud, wo);
 
-    nlohmann::json seconds = nlohmann::json::object();
-    for (const auto& t : res.timings) seconds[t.step] = t.seconds;
-    nlohmann::json j = {{"cloud", o->cloud},
-                        {"out", o->out},
-                        {"points_in", res.points_in},
-                        {"points_out", res.points_out},
-                        {"outliers_removed", res.outliers.removed},
-                        {"outlier_threshold", res.outliers.threshold},
-                        {"radius_removed", res.radius_removed},
-                        {"thinned", res.thinning.removed},
-                        {"voxel_size", res.thinning.voxel_size},
-                        {"wlop",
-                         {{"applied", res.wlop.applied},
-                          {"points_out", res.wlop.points_out},
-                          {"radius", res.wlop.radius},
-                          {"parallel", res.wlop.parallel}}},
-                        {"orientation", ac::to_string(res.normals.orientation)},
-                        {"seconds", seconds},
-                        {"total_seconds", res.total_seconds}};
+    const nlohmann::json j = summary_of(*o, res);
     g.emit(j);
     if (!g.json)
       fmt::print("wrote {}: {} points ({} in, {} outliers removed{})\n", o->out, res.points_out, res.points_in,

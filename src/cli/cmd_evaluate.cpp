@@ -1,6 +1,6 @@
 // autoscan evaluate --mesh FILE --truth FILE [--cloud FILE] [--tau 0.005] [--samples N]
 //                   [--histogram-csv FILE] [--histogram-svg FILE] [--json]
-// Ground-truth metrics (../shared/PRODUCT.md): accuracy, completeness, precision/recall/F-score at
+// Ground-truth metrics (docs/conventions.md): accuracy, completeness, precision/recall/F-score at
 // τ, coverage of the truth by a point cloud, and the error histogram of the paper's Figure 9.
 #include <memory>
 #include <optional>

@@ -12,7 +12,7 @@
 // subcommand that was given (a command with nested subcommands, like `session`, registers a runner
 // per nested subcommand).
 //
-// Exit codes (../shared/PRODUCT.md): 0 success, 1 runtime failure (RuntimeError), 2 bad usage or
+// Exit codes (docs/conventions.md): 0 success, 1 runtime failure (RuntimeError), 2 bad usage or
 // bad input (InputError, CLI parse errors). Library errors are thrown and mapped in main.cpp.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>

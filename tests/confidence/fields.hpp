@@ -9,6 +9,7 @@
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/random.hpp"
+#include "autoscan/shapes/primitives.hpp"
 
 namespace autoscan::testing {
 
@@ -70,41 +71,8 @@ class PlaneField : public ImplicitField {
   double eps_;
 };
 
-/// Icosphere of radius r (subdivided `levels` times), counter-clockwise from outside.
-inline TriangleMesh icosphere(double r, int levels) {
-  TriangleMesh m;
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  m.vertices = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  m.faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-             {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-             {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (auto& v : m.vertices) v.normalize();
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      m.vertices.push_back(
-          (m.vertices[static_cast<std::size_t>(a)] + m.vertices[static_cast<std::size_t>(b)]).normalized());
-      const int id = static_cast<int>(m.vertices.size()) - 1;
-      mid.emplace(key, id);
-      return id;
-    };
-    std::vector<Tri> faces;
-    for (const auto& f : m.faces) {
-      const int a = midpoint(f[0], f[1]), b = midpoint(f[1], f[2]), c = midpoint(f[2], f[0]);
-      faces.push_back({f[0], a, c});
-      faces.push_back({f[1], b, a});
-      faces.push_back({f[2], c, b});
-      faces.push_back({a, b, c});
-    }
-    m.faces = std::move(faces);
-  }
-  for (auto& v : m.vertices) v *= r;
-  return m;
-}
+/// Icosphere of radius r (subdivided `levels` times), counter-clockwise from outside: the library's.
+using autoscan::icosphere;
 
 /// Square grid mesh of [−a, a]² in the plane z = 0, n × n cells, normals +z.
 inline TriangleMesh plane_mesh(double a, int n) {

@@ -10,44 +10,12 @@
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/random.hpp"
+#include "autoscan/shapes/primitives.hpp"
 
 namespace autoscan::nbv::testing {
 
-/// Icosphere (outward CCW faces) of radius r around c, `levels` subdivisions.
-inline TriangleMesh icosphere(const Vec3& c, double r, int levels) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  for (auto& p : v) p.normalize();
-  std::vector<Tri> f = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                        {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                        {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[std::size_t(a)] + v[std::size_t(b)]).normalized());
-      const int id = static_cast<int>(v.size()) - 1;
-      mid[key] = id;
-      return id;
-    };
-    std::vector<Tri> nf;
-    for (const auto& tri : f) {
-      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), cc = midpoint(tri[2], tri[0]);
-      nf.push_back({tri[0], a, cc});
-      nf.push_back({tri[1], b, a});
-      nf.push_back({tri[2], cc, b});
-      nf.push_back({a, b, cc});
-    }
-    f = std::move(nf);
-  }
-  TriangleMesh m;
-  for (const auto& p : v) m.vertices.push_back(c + r * p);
-  m.faces = f;
-  return m;
-}
+/// Icosphere (outward CCW faces) of radius r around c, `levels` subdivisions (the library's).
+inline TriangleMesh icosphere(const Vec3& c, double r, int levels) { return autoscan::icosphere(r, levels, c); }
 
 inline void append_mesh(TriangleMesh& dst, const TriangleMesh& src) {
   const int off = static_cast<int>(dst.vertices.size());

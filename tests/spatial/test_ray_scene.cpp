@@ -10,6 +10,7 @@
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
+#include "autoscan/shapes/primitives.hpp"
 #include "autoscan/spatial/ray_scene.hpp"
 
 using namespace autoscan;
@@ -24,42 +25,6 @@ TriangleMesh box_mesh(const Vec3& h) {
     m.vertices.emplace_back(i & 1 ? h.x() : -h.x(), i & 2 ? h.y() : -h.y(), i & 4 ? h.z() : -h.z());
   m.faces = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
              {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-  return m;
-}
-
-/// An icosphere of radius r (vertices on the sphere), outward.
-TriangleMesh icosphere(double r, int subdivisions) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  TriangleMesh m;
-  m.vertices = {Vec3(-1, t, 0),  Vec3(1, t, 0),  Vec3(-1, -t, 0), Vec3(1, -t, 0), Vec3(0, -1, t),  Vec3(0, 1, t),
-                Vec3(0, -1, -t), Vec3(0, 1, -t), Vec3(t, 0, -1),  Vec3(t, 0, 1),  Vec3(-t, 0, -1), Vec3(-t, 0, 1)};
-  m.faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-             {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-             {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  for (auto& v : m.vertices) v.normalize();
-  for (int s = 0; s < subdivisions; ++s) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      const auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      m.vertices.push_back(
-          (m.vertices[static_cast<std::size_t>(a)] + m.vertices[static_cast<std::size_t>(b)]).normalized());
-      const int i = static_cast<int>(m.vertices.size()) - 1;
-      mid.emplace(key, i);
-      return i;
-    };
-    std::vector<Tri> faces;
-    for (const auto& f : m.faces) {
-      const int a = midpoint(f[0], f[1]), b = midpoint(f[1], f[2]), c = midpoint(f[2], f[0]);
-      faces.push_back({f[0], a, c});
-      faces.push_back({f[1], b, a});
-      faces.push_back({f[2], c, b});
-      faces.push_back({a, b, c});
-    }
-    m.faces = std::move(faces);
-  }
-  for (auto& v : m.vertices) v *= r;
   return m;
 }
 

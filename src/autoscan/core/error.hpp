@@ -1,5 +1,5 @@
 #pragma once
-// One error policy for the whole project (STYLE.md §7):
+// One error policy for the whole project (docs/conventions.md):
 //  * InputError   — the caller gave bad input or bad parameters (malformed file, NaN coordinates,
 //                   impossible option values). The message names the file or parameter and what is
 //                   wrong. The CLI maps it to exit code 2.

@@ -2,7 +2,7 @@
 // A scanner pose: where the scanner is, where it looks, and which way is up.
 // Camera frame convention (OpenCV): x right, y down, z forward (= direction). world_from_camera()
 // maps camera coordinates to world coordinates.
-// Text forms (../shared/PRODUCT.md): JSON {"position":[x,y,z],"direction":[dx,dy,dz],"up":[ux,uy,uz]}
+// Text forms (docs/conventions.md): JSON {"position":[x,y,z],"direction":[dx,dy,dz],"up":[ux,uy,uz]}
 // and on the command line "px,py,pz,dx,dy,dz" (up defaults to +Z).
 #include <nlohmann/json_fwd.hpp>
 

@@ -1,5 +1,5 @@
 #pragma once
-// Progress and cancellation for long stages (STYLE.md §9, CGAL's callback): a stage calls
+// Progress and cancellation for long stages (docs/conventions.md; CGAL's callback): a stage calls
 // `report(fraction)` now and then; the callback returns false to ask the stage to stop, in which
 // case the stage throws Cancelled. Callbacks may be called from worker threads but never
 // concurrently (Progress serialises them).

@@ -1,5 +1,5 @@
 #pragma once
-// The seeded random generator used everywhere (STYLE.md §8): xoshiro256** seeded through
+// The seeded random generator used everywhere (docs/conventions.md): xoshiro256** seeded through
 // splitmix64, with our own uniform/normal transforms so that results are bit-identical across
 // standard libraries for a given seed. Not thread-safe: give each thread or task its own stream
 // with Rng::stream(k), which is deterministic in (seed, k).

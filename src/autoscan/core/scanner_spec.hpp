@@ -1,7 +1,7 @@
 #pragma once
 // The scanner as the planner sees it (a real one or the virtual one): working range, field of view,
 // resolution, projector baseline, largest incidence angle, and the simulator's noise model.
-// Defaults (../shared/PRODUCT.md) follow the paper's authors' setup: working range 20-40 cm for an
+// Defaults (docs/conventions.md) follow the paper's authors' setup: working range 20-40 cm for an
 // object about 25 cm across, i.e. near 0.8 and far 1.6 for objects normalised to diagonal 1, and a
 // field of view of about 28 degrees. JSON form: the field names below.
 #include <nlohmann/json_fwd.hpp>

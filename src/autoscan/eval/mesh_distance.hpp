@@ -23,7 +23,7 @@ struct ClosestPoint {
   int face = -1;  ///< index of the nearest face
 };
 
-/// Nearest-face queries against one mesh; build once, query many times (STYLE.md §6). All const
+/// Nearest-face queries against one mesh; build once, query many times (docs/conventions.md). All const
 /// member functions are thread-safe.
 class MeshDistance {
  public:

@@ -1,5 +1,5 @@
 #pragma once
-// Ground-truth metrics (../shared/PRODUCT.md, "Metrics"; the paper's Figure 9 error histogram).
+// Ground-truth metrics (docs/conventions.md, "Metrics"; the paper's Figure 9 error histogram).
 //
 // Both surfaces are sampled uniformly (area-weighted) with a fixed seed; distances are exact
 // point-to-triangle distances (MeshDistance), not point-to-point approximations.

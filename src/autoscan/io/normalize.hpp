@@ -1,5 +1,5 @@
 #pragma once
-// Normalisation to the benchmark frame (../shared/PRODUCT.md): bounding-box diagonal 1, centred
+// Normalisation to the benchmark frame (docs/conventions.md, "The benchmark frame"): bounding-box diagonal 1, centred
 // at the origin (the box centre). Axes are left as they are (the meshes are taken to be Z up
 // already); normals are unchanged by a uniform scale.
 #include "autoscan/core/mesh.hpp"

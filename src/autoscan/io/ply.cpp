@@ -109,6 +109,49 @@ struct PlyHeader {
   std::size_t lines = 0;  ///< header line count (the ASCII body starts on line lines + 1)
 };
 
+// A 'format' line's encoding (version 1.x only).
+Encoding parse_format(const std::vector<std::string_view>& tok, const std::string& path, std::size_t line_no) {
+  if (tok.size() != 3) fail(path, "line {}: malformed format line", line_no);
+  Encoding enc = Encoding::ascii;
+  if (tok[1] == "ascii")
+    enc = Encoding::ascii;
+  else if (tok[1] == "binary_little_endian")
+    enc = Encoding::little;
+  else if (tok[1] == "binary_big_endian")
+    enc = Encoding::big;
+  else
+    fail(path, "line {}: unknown PLY format '{}' (expected ascii, binary_little_endian or binary_big_endian)", line_no,
+         TextReader::shorten(tok[1]));
+  if (tok[2].substr(0, 1) != "1")
+    fail(path, "line {}: unsupported PLY version '{}'", line_no, TextReader::shorten(tok[2]));
+  return enc;
+}
+
+// A 'property' line: 'property TYPE NAME' or 'property list COUNT_TYPE TYPE NAME'.
+PlyProperty parse_property(const std::vector<std::string_view>& tok, std::string_view line, const std::string& path,
+                           std::size_t line_no) {
+  PlyProperty prop;
+  if (tok.size() >= 2 && tok[1] == "list") {
+    if (tok.size() != 5)
+      fail(path, "line {}: malformed list property (expected 'property list COUNT_TYPE TYPE NAME')", line_no);
+    const auto ct = parse_type(tok[2]);
+    const auto it = parse_type(tok[3]);
+    if (!ct || !it) fail(path, "line {}: unknown property type in list '{}'", line_no, TextReader::shorten(line));
+    if (is_float(*ct)) fail(path, "line {}: a list count type must be an integer type", line_no);
+    prop.is_list = true;
+    prop.count_type = *ct;
+    prop.type = *it;
+    prop.name = std::string(tok[4]);
+  } else {
+    if (tok.size() != 3) fail(path, "line {}: malformed property line (expected 'property TYPE NAME')", line_no);
+    const auto t = parse_type(tok[1]);
+    if (!t) fail(path, "line {}: unknown property type '{}'", line_no, TextReader::shorten(tok[1]));
+    prop.type = *t;
+    prop.name = std::string(tok[2]);
+  }
+  return prop;
+}
+
 PlyHeader parse_header(const std::string& path, const std::string& bytes) {
   PlyHeader h;
   std::size_t pos = 0, line_no = 0;
@@ -149,18 +192,7 @@ PlyHeader parse_header(const std::string& path, const std::string& bytes) {
       break;
     }
     if (kw == "format") {
-      if (tok.size() != 3) fail(path, "line {}: malformed format line", line_no);
-      if (tok[1] == "ascii")
-        h.enc = Encoding::ascii;
-      else if (tok[1] == "binary_little_endian")
-        h.enc = Encoding::little;
-      else if (tok[1] == "binary_big_endian")
-        h.enc = Encoding::big;
-      else
-        fail(path, "line {}: unknown PLY format '{}' (expected ascii, binary_little_endian or binary_big_endian)",
-             line_no, TextReader::shorten(tok[1]));
-      if (tok[2].substr(0, 1) != "1")
-        fail(path, "line {}: unsupported PLY version '{}'", line_no, TextReader::shorten(tok[2]));
+      h.enc = parse_format(tok, path, line_no);
       have_format = true;
     } else if (kw == "element") {
       if (tok.size() != 3) fail(path, "line {}: malformed element line (expected 'element NAME COUNT')", line_no);
@@ -176,25 +208,7 @@ PlyHeader parse_header(const std::string& path, const std::string& bytes) {
       property_names.clear();
     } else if (kw == "property") {
       if (h.elements.empty()) fail(path, "line {}: property declared before any element", line_no);
-      PlyProperty prop;
-      if (tok.size() >= 2 && tok[1] == "list") {
-        if (tok.size() != 5)
-          fail(path, "line {}: malformed list property (expected 'property list COUNT_TYPE TYPE NAME')", line_no);
-        const auto ct = parse_type(tok[2]);
-        const auto it = parse_type(tok[3]);
-        if (!ct || !it) fail(path, "line {}: unknown property type in list '{}'", line_no, TextReader::shorten(line));
-        if (is_float(*ct)) fail(path, "line {}: a list count type must be an integer type", line_no);
-        prop.is_list = true;
-        prop.count_type = *ct;
-        prop.type = *it;
-        prop.name = std::string(tok[4]);
-      } else {
-        if (tok.size() != 3) fail(path, "line {}: malformed property line (expected 'property TYPE NAME')", line_no);
-        const auto t = parse_type(tok[1]);
-        if (!t) fail(path, "line {}: unknown property type '{}'", line_no, TextReader::shorten(tok[1]));
-        prop.type = *t;
-        prop.name = std::string(tok[2]);
-      }
+      PlyProperty prop = parse_property(tok, line, path, line_no);
       if (!property_names.insert(tok.back()).second)
         fail(path, "line {}: property '{}' is declared twice in element '{}'", line_no, TextReader::shorten(tok.back()),
              h.elements.back().name);
@@ -337,13 +351,209 @@ double read_ascii(TextReader& t, PlyType type, const PlyElement& e, std::uint64_
 
 }  // namespace
 
+namespace {
+
+// Decides where each vertex property goes: x y z (required), nx ny nz and red green blue (when all
+// three are there), every other non-list property a named scalar column of pc.
+void assign_vertex_sinks(PlyElement& vertex, PointCloud& pc, const std::string& path) {
+  auto find = [&](const char* n) -> PlyProperty* {
+    for (auto& p : vertex.props)
+      if (p.name == n && !p.is_list) return &p;
+    return nullptr;
+  };
+  const char* xyz[] = {"x", "y", "z"};
+  for (const char* n : xyz)
+    if (!find(n)) fail(path, "line {}: the vertex element has no '{}' property", vertex.header_line, n);
+  find("x")->sink = Sink::x;
+  find("y")->sink = Sink::y;
+  find("z")->sink = Sink::z;
+  if (find("nx") && find("ny") && find("nz")) {
+    find("nx")->sink = Sink::nx;
+    find("ny")->sink = Sink::ny;
+    find("nz")->sink = Sink::nz;
+  }
+  if (find("red") && find("green") && find("blue")) {
+    find("red")->sink = Sink::red;
+    find("green")->sink = Sink::green;
+    find("blue")->sink = Sink::blue;
+  }
+  // The header has no duplicate names, so columns are appended without a (linear) lookup each.
+  for (auto& p : vertex.props) {
+    if (p.is_list || p.sink != Sink::skip) continue;
+    p.sink = Sink::scalar;
+    p.scalar = pc.scalars.size();
+    pc.scalars.columns().emplace_back(p.name, std::vector<double>{});
+  }
+}
+
+// The face element's integer 'vertex_indices' (or 'vertex_index') list.
+void mark_face_indices(PlyElement& face, const std::string& path) {
+  for (auto& p : face.props)
+    if (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index") && !is_float(p.type)) {
+      p.face_indices = true;
+      break;
+    }
+  bool found = false;
+  for (const auto& p : face.props) found = found || p.face_indices;
+  if (!found && face.count > 0)
+    fail(path, "line {}: the face element has no integer 'vertex_indices' list property", face.header_line);
+}
+
+// Refuses counts the file cannot hold before anything is allocated: each item takes at least its
+// fixed-size properties plus one count per list (binary) or two bytes per property (ASCII).
+void check_counts_fit(const PlyHeader& h, std::size_t data_bytes, const std::string& path) {
+  long double need = 0;
+  for (const auto& e : h.elements) {
+    std::size_t min_item = 0;
+    for (const auto& p : e.props)
+      min_item += h.enc == Encoding::ascii ? 2 : (p.is_list ? type_size(p.count_type) : type_size(p.type));
+    need += static_cast<long double>(e.count) * static_cast<long double>(min_item);
+    if (need > static_cast<long double>(data_bytes) + 1)
+      fail(path,
+           "line {}: element '{}' claims {} items but only {} bytes of data follow the header (truncated file or "
+           "corrupt count)",
+           e.header_line, e.name, e.count, data_bytes);
+  }
+}
+
+// Reads the data section (ASCII or binary) into g: the vertex element's properties through the sinks,
+// the face element's index lists fan-triangulated; every other element skipped.
+class PlyBodyReader {
+ public:
+  PlyBodyReader(const std::string& path, const std::string& bytes, const PlyHeader& h, const PlyElement* vertex,
+                GeometryFile& g)
+      : path_(path),
+        bytes_(bytes),
+        h_(h),
+        vertex_(vertex),
+        g_(g),
+        nv_(vertex->count),
+        sinks_{g.vertices.positions, g.vertices.normals, g.vertices.colors, {}} {
+    PointCloud& pc = g.vertices;
+    pc.positions.reserve(nv_);
+    for (const auto& p : vertex->props) {
+      if (p.sink == Sink::nx) sinks_.has_normals = true;
+      if (p.sink == Sink::red) sinks_.has_colors = true;
+    }
+    if (sinks_.has_normals) pc.normals.reserve(nv_);
+    if (sinks_.has_colors) pc.colors.reserve(nv_);
+    for (auto& [name, col] : pc.scalars.columns()) {
+      col.reserve(nv_);
+      sinks_.scalars.push_back(&col);
+    }
+  }
+
+  void read() {
+    if (h_.enc == Encoding::ascii)
+      read_ascii_body();
+    else
+      read_binary_body();
+  }
+
+ private:
+  template <class Where>
+  void add_polygon(std::uint64_t item, const Where& where) {
+    if (poly_.size() < 3) where(fmt::format("face {} has {} vertices (a face needs at least 3)", item, poly_.size()));
+    for (int v : poly_)
+      if (v < 0 || static_cast<std::uint64_t>(v) >= nv_)
+        where(fmt::format("face {} references vertex {} but there are {} vertices (index out of range)", item, v, nv_));
+    fan_triangulate(poly_, g_.faces);
+    ++g_.polygons;
+  }
+  void read_ascii_body();
+  void read_binary_body();
+
+  const std::string& path_;
+  const std::string& bytes_;
+  const PlyHeader& h_;
+  const PlyElement* vertex_;
+  GeometryFile& g_;
+  std::uint64_t nv_;
+  VertexSinks sinks_;
+  std::vector<int> poly_;
+};
+
+void PlyBodyReader::read_ascii_body() {
+  // Line numbers continue from the header.
+  TextReader t(std::string_view(bytes_).substr(h_.body), path_, '\0', h_.lines + 1);
+  auto where_line = [&](const std::string& msg) { t.fail("{}", msg); };
+  for (const auto& e : h_.elements) {
+    for (std::uint64_t i = 0; i < e.count; ++i) {
+      for (const auto& p : e.props) {
+        if (p.is_list) {
+          const double c = read_ascii(t, p.count_type, e, i, p.name);
+          if (c < 0 || c > static_cast<double>(t.remaining_bytes()))
+            where_line(fmt::format("element '{}' item {}: invalid list length {}", e.name, i, c));
+          const auto len = static_cast<std::size_t>(c);
+          if (p.face_indices) poly_.clear();
+          for (std::size_t k = 0; k < len; ++k) {
+            const double v = read_ascii(t, p.type, e, i, p.name);
+            if (p.face_indices) poly_.push_back(v < -2147483648.0 || v > 2147483647.0 ? -1 : static_cast<int>(v));
+          }
+          if (p.face_indices) add_polygon(i, where_line);
+        } else {
+          const double v = read_ascii(t, p.type, e, i, p.name);
+          if (&e == vertex_) sinks_.put(p, v);
+        }
+      }
+      if (&e == vertex_)
+        if (const char* msg = sinks_.finish()) where_line(fmt::format("vertex {} {}", i, msg));
+    }
+  }
+  if (!t.token().empty())
+    where_line("unexpected data after the last element (the element counts in the header are wrong?)");
+}
+
+void PlyBodyReader::read_binary_body() {
+  const std::string& path = path_;
+  ByteReader r(std::string_view(bytes_).substr(h_.body), path, h_.enc == Encoding::big);
+  auto where_bin = [&](const std::string& msg) { fail(path, "{}", msg); };
+  for (const auto& e : h_.elements) {
+    r.set_context(fmt::format("element '{}' (header says {} items)", e.name, e.count));
+    const bool is_vertex = &e == vertex_;
+    for (std::uint64_t i = 0; i < e.count; ++i) {
+      for (const auto& p : e.props) {
+        if (p.is_list) {
+          const double c = read_binary(r, p.count_type);
+          if (c < 0 || c * static_cast<double>(type_size(p.type)) > static_cast<double>(r.remaining()))
+            fail(path, "truncated or corrupt: element '{}' item {} has a list of {} values", e.name, i, c);
+          const auto len = static_cast<std::size_t>(c);
+          if (p.face_indices) {
+            poly_.clear();
+            for (std::size_t k = 0; k < len; ++k) {
+              const double v = read_binary(r, p.type);
+              poly_.push_back(v < -2147483648.0 || v > 2147483647.0 ? -1 : static_cast<int>(v));
+            }
+            add_polygon(i, where_bin);
+          } else {
+            r.skip(len * type_size(p.type));
+          }
+        } else if (is_vertex) {
+          const double v = read_binary(r, p.type);
+          if (!std::isfinite(v))
+            fail(path, "vertex {} has a non-finite value (NaN or Inf) in property '{}'", i, p.name);
+          sinks_.put(p, v);
+        } else {
+          r.skip(type_size(p.type));
+        }
+      }
+      if (is_vertex)
+        if (const char* msg = sinks_.finish()) fail(path, "vertex {} {}", i, msg);
+    }
+  }
+  if (r.remaining() > 0)
+    fail(path, "{} bytes of unexpected data after the last element (the element counts in the header are wrong?)",
+         r.remaining());
+}
+
+}  // namespace
+
 GeometryFile read_ply(const std::string& path, const std::string& bytes) {
   PlyHeader h = parse_header(path, bytes);
   GeometryFile g;
   g.format = h.enc == Encoding::ascii    ? "ply ascii"
              : h.enc == Encoding::little ? "ply binary_little_endian"
                                          : "ply binary_big_endian";
-
   // Locate the vertex and face elements and decide where each property goes.
   PlyElement* vertex = nullptr;
   PlyElement* face = nullptr;
@@ -354,161 +564,13 @@ GeometryFile read_ply(const std::string& path, const std::string& bytes) {
     if (e.name == "face") face = &e;
   }
   if (!vertex) fail(path, "the PLY header declares no 'vertex' element");
-  PointCloud& pc = g.vertices;
-  {
-    auto find = [&](const char* n) -> PlyProperty* {
-      for (auto& p : vertex->props)
-        if (p.name == n && !p.is_list) return &p;
-      return nullptr;
-    };
-    const char* xyz[] = {"x", "y", "z"};
-    for (const char* n : xyz)
-      if (!find(n)) fail(path, "line {}: the vertex element has no '{}' property", vertex->header_line, n);
-    find("x")->sink = Sink::x;
-    find("y")->sink = Sink::y;
-    find("z")->sink = Sink::z;
-    if (find("nx") && find("ny") && find("nz")) {
-      find("nx")->sink = Sink::nx;
-      find("ny")->sink = Sink::ny;
-      find("nz")->sink = Sink::nz;
-    }
-    if (find("red") && find("green") && find("blue")) {
-      find("red")->sink = Sink::red;
-      find("green")->sink = Sink::green;
-      find("blue")->sink = Sink::blue;
-    }
-    // The header has no duplicate names, so columns are appended without a (linear) lookup each.
-    for (auto& p : vertex->props) {
-      if (p.is_list || p.sink != Sink::skip) continue;
-      p.sink = Sink::scalar;
-      p.scalar = pc.scalars.size();
-      pc.scalars.columns().emplace_back(p.name, std::vector<double>{});
-    }
-  }
-  if (face) {
-    for (auto& p : face->props)
-      if (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index") && !is_float(p.type)) {
-        p.face_indices = true;
-        break;
-      }
-    bool found = false;
-    for (const auto& p : face->props) found = found || p.face_indices;
-    if (!found && face->count > 0)
-      fail(path, "line {}: the face element has no integer 'vertex_indices' list property", face->header_line);
-  }
-
-  // Refuse counts the file cannot hold before allocating anything: each item takes at least its
-  // fixed-size properties plus one count per list (binary) or two bytes per property (ASCII).
-  const std::size_t data_bytes = bytes.size() - h.body;
-  {
-    long double need = 0;
-    for (const auto& e : h.elements) {
-      std::size_t min_item = 0;
-      for (const auto& p : e.props)
-        min_item += h.enc == Encoding::ascii ? 2 : (p.is_list ? type_size(p.count_type) : type_size(p.type));
-      need += static_cast<long double>(e.count) * static_cast<long double>(min_item);
-      if (need > static_cast<long double>(data_bytes) + 1)
-        fail(path,
-             "line {}: element '{}' claims {} items but only {} bytes of data follow the header (truncated file or "
-             "corrupt count)",
-             e.header_line, e.name, e.count, data_bytes);
-    }
-  }
-
-  const std::uint64_t nv = vertex->count;
-  if (nv > 2147483647ULL) fail(path, "{} vertices: more than 2^31-1 vertices are not supported", nv);
-  pc.positions.reserve(nv);
-  VertexSinks sinks{pc.positions, pc.normals, pc.colors, {}};
-  for (const auto& p : vertex->props) {
-    if (p.sink == Sink::nx) sinks.has_normals = true;
-    if (p.sink == Sink::red) sinks.has_colors = true;
-  }
-  if (sinks.has_normals) pc.normals.reserve(nv);
-  if (sinks.has_colors) pc.colors.reserve(nv);
-  for (auto& [name, col] : pc.scalars.columns()) {
-    col.reserve(nv);
-    sinks.scalars.push_back(&col);
-  }
-  std::vector<int> poly;
-  auto add_polygon = [&](std::uint64_t item, auto&& where) {
-    if (poly.size() < 3) where(fmt::format("face {} has {} vertices (a face needs at least 3)", item, poly.size()));
-    for (int v : poly)
-      if (v < 0 || static_cast<std::uint64_t>(v) >= nv)
-        where(fmt::format("face {} references vertex {} but there are {} vertices (index out of range)", item, v, nv));
-    fan_triangulate(poly, g.faces);
-    ++g.polygons;
-  };
+  assign_vertex_sinks(*vertex, g.vertices, path);
+  if (face) mark_face_indices(*face, path);
+  check_counts_fit(h, bytes.size() - h.body, path);
+  if (vertex->count > 2147483647ULL)
+    fail(path, "{} vertices: more than 2^31-1 vertices are not supported", vertex->count);
   if (face) g.faces.reserve(face->count);
-
-  if (h.enc == Encoding::ascii) {
-    // Line numbers continue from the header.
-    TextReader t(std::string_view(bytes).substr(h.body), path, '\0', h.lines + 1);
-    auto where_line = [&](const std::string& msg) { t.fail("{}", msg); };
-    for (const auto& e : h.elements) {
-      for (std::uint64_t i = 0; i < e.count; ++i) {
-        for (const auto& p : e.props) {
-          if (p.is_list) {
-            const double c = read_ascii(t, p.count_type, e, i, p.name);
-            if (c < 0 || c > static_cast<double>(t.remaining_bytes()))
-              where_line(fmt::format("element '{}' item {}: invalid list length {}", e.name, i, c));
-            const auto len = static_cast<std::size_t>(c);
-            if (p.face_indices) poly.clear();
-            for (std::size_t k = 0; k < len; ++k) {
-              const double v = read_ascii(t, p.type, e, i, p.name);
-              if (p.face_indices) poly.push_back(v < -2147483648.0 || v > 2147483647.0 ? -1 : static_cast<int>(v));
-            }
-            if (p.face_indices) add_polygon(i, where_line);
-          } else {
-            const double v = read_ascii(t, p.type, e, i, p.name);
-            if (&e == vertex) sinks.put(p, v);
-          }
-        }
-        if (&e == vertex)
-          if (const char* msg = sinks.finish()) where_line(fmt::format("vertex {} {}", i, msg));
-      }
-    }
-    if (!t.token().empty())
-      where_line("unexpected data after the last element (the element counts in the header are wrong?)");
-  } else {
-    ByteReader r(std::string_view(bytes).substr(h.body), path, h.enc == Encoding::big);
-    auto where_bin = [&](const std::string& msg) { fail(path, "{}", msg); };
-    for (const auto& e : h.elements) {
-      r.set_context(fmt::format("element '{}' (header says {} items)", e.name, e.count));
-      const bool is_vertex = &e == vertex;
-      for (std::uint64_t i = 0; i < e.count; ++i) {
-        for (const auto& p : e.props) {
-          if (p.is_list) {
-            const double c = read_binary(r, p.count_type);
-            if (c < 0 || c * static_cast<double>(type_size(p.type)) > static_cast<double>(r.remaining()))
-              fail(path, "truncated or corrupt: element '{}' item {} has a list of {} values", e.name, i, c);
-            const auto len = static_cast<std::size_t>(c);
-            if (p.face_indices) {
-              poly.clear();
-              for (std::size_t k = 0; k < len; ++k) {
-                const double v = read_binary(r, p.type);
-                poly.push_back(v < -2147483648.0 || v > 2147483647.0 ? -1 : static_cast<int>(v));
-              }
-              add_polygon(i, where_bin);
-            } else {
-              r.skip(len * type_size(p.type));
-            }
-          } else if (is_vertex) {
-            const double v = read_binary(r, p.type);
-            if (!std::isfinite(v))
-              fail(path, "vertex {} has a non-finite value (NaN or Inf) in property '{}'", i, p.name);
-            sinks.put(p, v);
-          } else {
-            r.skip(type_size(p.type));
-          }
-        }
-        if (is_vertex)
-          if (const char* msg = sinks.finish()) fail(path, "vertex {} {}", i, msg);
-      }
-    }
-    if (r.remaining() > 0)
-      fail(path, "{} bytes of unexpected data after the last element (the element counts in the header are wrong?)",
-           r.remaining());
-  }
+  PlyBodyReader(path, bytes, h, vertex, g).read();
   return g;
 }
 

@@ -52,38 +52,14 @@ std::vector<int> weld_exact(const std::vector<Vec3>& v, std::size_t& unique) {
   return rep;
 }
 
-}  // namespace
+// Pairs of faces across interior manifold edges, and whether they run the edge the same way.
+struct Link {
+  int f, g;
+  bool same_direction;
+};
 
-MeshTopology analyze_topology(const TriangleMesh& mesh, const TopologyOptions& options) {
-  MeshTopology t;
-  t.vertices = mesh.vertices.size();
-  t.faces = mesh.faces.size();
-  std::size_t nv = mesh.vertices.size();
-  std::vector<int> rep;
-  if (options.weld_coincident) {
-    rep = weld_exact(mesh.vertices, nv);
-    t.duplicate_vertices = mesh.vertices.size() - nv;
-  } else {
-    rep.resize(nv);
-    std::iota(rep.begin(), rep.end(), 0);
-  }
-
-  // Non-degenerate faces in welded indices.
-  std::vector<Tri> faces;
-  faces.reserve(mesh.faces.size());
-  for (const auto& f : mesh.faces) {
-    const Tri w{rep[f[0]], rep[f[1]], rep[f[2]]};
-    if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) {
-      ++t.degenerate_faces;
-      continue;
-    }
-    const auto& a = mesh.vertices[f[0]];
-    if ((mesh.vertices[f[1]] - a).cross(mesh.vertices[f[2]] - a).squaredNorm() == 0.0) ++t.zero_area_faces;
-    faces.push_back(w);
-  }
-  const std::size_t nf = faces.size();
-
-  // Used vertices and components (faces sharing a vertex).
+// Used vertices and components (faces sharing a vertex); returns the number of used vertices.
+std::size_t count_components(const std::vector<Tri>& faces, std::size_t nv, MeshTopology& t) {
   std::vector<char> used(nv, 0);
   Dsu comp(nv);
   for (const auto& f : faces) {
@@ -98,11 +74,16 @@ MeshTopology analyze_topology(const TriangleMesh& mesh, const TopologyOptions& o
       if (comp.find(static_cast<int>(i)) == static_cast<int>(i)) ++t.connected_components;
     }
   t.isolated_vertices = nv - n_used;
+  return n_used;
+}
 
-  // Edges and fans, vertex by vertex. At vertex v, each incident face gives two spokes (v, next)
-  // and (v, prev); spokes to the same neighbour w are the faces around edge (v, w). The edge is
-  // counted at its smaller end. Corners at v joined through a shared edge form a fan; more than one
-  // fan means v pinches several surface sheets together (a non-manifold vertex).
+// Edges and fans, vertex by vertex. At vertex v, each incident face gives two spokes (v, next)
+// and (v, prev); spokes to the same neighbour w are the faces around edge (v, w). The edge is
+// counted at its smaller end. Corners at v joined through a shared edge form a fan; more than one
+// fan means v pinches several surface sheets together (a non-manifold vertex). Returns the links
+// across interior manifold edges.
+std::vector<Link> count_edges_and_fans(const std::vector<Tri>& faces, std::size_t nv, MeshTopology& t) {
+  const std::size_t nf = faces.size();
   std::vector<int> first(nv + 1, 0);
   for (const auto& f : faces)
     for (int k = 0; k < 3; ++k) ++first[f[k] + 1];
@@ -117,11 +98,6 @@ MeshTopology analyze_topology(const TriangleMesh& mesh, const TopologyOptions& o
     int other;  ///< the neighbour w
     int local;  ///< index of the corner among v's corners
     bool out;   ///< the face runs v → w (else w → v)
-  };
-  // Pairs of faces across interior manifold edges, and whether they run the edge the same way.
-  struct Link {
-    int f, g;
-    bool same_direction;
   };
   std::vector<Link> links;
   links.reserve(3 * nf / 2);
@@ -173,51 +149,85 @@ MeshTopology analyze_topology(const TriangleMesh& mesh, const TopologyOptions& o
     for (int i = 0; i < e - b; ++i) fans += fan_find(i) == i ? 1 : 0;
     if (fans > 1) ++t.non_manifold_vertices;
   }
+  return links;
+}
 
-  t.euler_characteristic =
-      static_cast<long long>(n_used) - static_cast<long long>(t.edges) + static_cast<long long>(nf);
-  t.manifold = t.non_manifold_edges == 0 && t.non_manifold_vertices == 0;
-  t.closed = t.manifold && t.boundary_edges == 0 && nf > 0;
-
-  // Orientability: propagate a flip per face across interior edges; a contradiction means the
-  // surface is non-orientable (a Möbius strip, a Klein bottle).
-  if (t.manifold) {
-    std::vector<int> start(nf + 1, 0);
-    for (const auto& l : links) {
-      ++start[l.f + 1];
-      ++start[l.g + 1];
-    }
-    std::partial_sum(start.begin(), start.end(), start.begin());
-    std::vector<std::pair<int, bool>> adj(2 * links.size());
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (const auto& l : links) {
-      adj[fill[l.f]++] = {l.g, l.same_direction};
-      adj[fill[l.g]++] = {l.f, l.same_direction};
-    }
-    std::vector<signed char> flip(nf, -1);
-    std::vector<int> stack;
-    t.orientable = true;
-    for (std::size_t s = 0; s < nf && t.orientable; ++s) {
-      if (flip[s] >= 0) continue;
-      flip[s] = 0;
-      stack.push_back(static_cast<int>(s));
-      while (!stack.empty() && t.orientable) {
-        const int f = stack.back();
-        stack.pop_back();
-        for (int e = start[f]; e < start[f + 1]; ++e) {
-          const auto [g, same] = adj[e];
-          const signed char want = static_cast<signed char>(flip[f] ^ (same ? 1 : 0));
-          if (flip[g] < 0) {
-            flip[g] = want;
-            stack.push_back(g);
-          } else if (flip[g] != want) {
-            t.orientable = false;
-            break;
-          }
+// Orientability: propagate a flip per face across interior edges; a contradiction means the
+// surface is non-orientable (a Möbius strip, a Klein bottle).
+bool orientable(const std::vector<Link>& links, std::size_t nf) {
+  std::vector<int> start(nf + 1, 0);
+  for (const auto& l : links) {
+    ++start[l.f + 1];
+    ++start[l.g + 1];
+  }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::pair<int, bool>> adj(2 * links.size());
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (const auto& l : links) {
+    adj[fill[l.f]++] = {l.g, l.same_direction};
+    adj[fill[l.g]++] = {l.f, l.same_direction};
+  }
+  std::vector<signed char> flip(nf, -1);
+  std::vector<int> stack;
+  for (std::size_t s = 0; s < nf; ++s) {
+    if (flip[s] >= 0) continue;
+    flip[s] = 0;
+    stack.push_back(static_cast<int>(s));
+    while (!stack.empty()) {
+      const int f = stack.back();
+      stack.pop_back();
+      for (int e = start[f]; e < start[f + 1]; ++e) {
+        const auto [g, same] = adj[e];
+        const signed char want = static_cast<signed char>(flip[f] ^ (same ? 1 : 0));
+        if (flip[g] < 0) {
+          flip[g] = want;
+          stack.push_back(g);
+        } else if (flip[g] != want) {
+          return false;
         }
       }
     }
   }
+  return true;
+}
+
+}  // namespace
+
+MeshTopology analyze_topology(const TriangleMesh& mesh, const TopologyOptions& options) {
+  MeshTopology t;
+  t.vertices = mesh.vertices.size();
+  t.faces = mesh.faces.size();
+  std::size_t nv = mesh.vertices.size();
+  std::vector<int> rep;
+  if (options.weld_coincident) {
+    rep = weld_exact(mesh.vertices, nv);
+    t.duplicate_vertices = mesh.vertices.size() - nv;
+  } else {
+    rep.resize(nv);
+    std::iota(rep.begin(), rep.end(), 0);
+  }
+
+  // Non-degenerate faces in welded indices.
+  std::vector<Tri> faces;
+  faces.reserve(mesh.faces.size());
+  for (const auto& f : mesh.faces) {
+    const Tri w{rep[f[0]], rep[f[1]], rep[f[2]]};
+    if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) {
+      ++t.degenerate_faces;
+      continue;
+    }
+    const auto& a = mesh.vertices[f[0]];
+    if ((mesh.vertices[f[1]] - a).cross(mesh.vertices[f[2]] - a).squaredNorm() == 0.0) ++t.zero_area_faces;
+    faces.push_back(w);
+  }
+  const std::size_t nf = faces.size();
+  const std::size_t n_used = count_components(faces, nv, t);
+  const std::vector<Link> links = count_edges_and_fans(faces, nv, t);
+  t.euler_characteristic =
+      static_cast<long long>(n_used) - static_cast<long long>(t.edges) + static_cast<long long>(nf);
+  t.manifold = t.non_manifold_edges == 0 && t.non_manifold_vertices == 0;
+  t.closed = t.manifold && t.boundary_edges == 0 && nf > 0;
+  if (t.manifold) t.orientable = orientable(links, nf);
   if (t.closed && t.orientable) {
     t.genus = (2 * static_cast<long long>(t.connected_components) - t.euler_characteristic) / 2;
   }

@@ -386,6 +386,188 @@ void log_bounds(const BoundSoA& S, std::size_t n, const Vec3& q, double beta, co
   }
 }
 
+// One worker's share of vvf_fast: blocks of voxels, each bounding the clusters once for the block
+// and then per voxel; scratch buffers reused across blocks; counters for the diagnostics.
+class BlockSearch {
+ public:
+  BlockSearch(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
+              const ClusterSet& cs, const BoundSoA& all, double tol, int block_size)
+      : vf_(vf),
+        iso_(iso),
+        scene_(scene),
+        W_(W),
+        cs_(cs),
+        all_(all),
+        tol_(tol),
+        log_tol_(std::log(tol)),
+        b_(block_size),
+        nbx_((vf.grid.dims[0] + block_size - 1) / block_size),
+        nby_((vf.grid.dims[1] + block_size - 1) / block_size),
+        block_lb_(all.n),
+        voxel_lb_(all.n),
+        block_sorted_(all.n),
+        val_(cs.px.size()) {
+    list_.reserve(all.n);
+  }
+
+  void block(std::size_t blk);
+
+  std::size_t pairs = 0, rays = 0, bounds = 0;
+
+ private:
+  void voxel(std::size_t v, int& seed);
+  // Log-domain estimate of every point of cluster cl seen from q into val_ (vectorised in fixed
+  // chunks of 4; a last chunk may overlap the previous one).
+  void estimate(const Cluster& cl, const Vec3& q);
+
+  ViewingField& vf_;
+  const IsoData& iso_;
+  const spatial::RayScene& scene_;
+  const Weights& W_;
+  const ClusterSet& cs_;
+  const BoundSoA& all_;
+  double tol_, log_tol_;
+  int b_, nbx_, nby_;
+  std::vector<double> block_lb_, voxel_lb_, block_sorted_, val_;
+  std::vector<int> order_;
+  BoundSoA list_;
+  std::vector<std::pair<double, int>> todo_;  // (voxel bound, position in list)
+  std::vector<std::pair<double, int>> cand_;  // (value, iso-point index)
+  std::vector<std::size_t> voxels_;
+};
+
+void BlockSearch::block(std::size_t blk) {
+  const auto& grid = vf_.grid;
+  const auto& dims = grid.dims;
+  const int b = b_;
+  const int bx = static_cast<int>(blk % nbx_), by = static_cast<int>((blk / nbx_) % nby_),
+            bz = static_cast<int>(blk / (std::size_t(nbx_) * nby_));
+  const int i0 = bx * b, j0 = by * b, k0 = bz * b;
+  const int i1 = std::min(i0 + b, dims[0]), j1 = std::min(j0 + b, dims[1]), k1 = std::min(k0 + b, dims[2]);
+  voxels_.clear();
+  // Serpentine order so that consecutive voxels are neighbours (good seeds).
+  for (int k = k0; k < k1; ++k)
+    for (int jj = 0; jj < j1 - j0; ++jj) {
+      const int j = ((k - k0) % 2 == 0) ? j0 + jj : j1 - 1 - jj;
+      for (int ii = 0; ii < i1 - i0; ++ii) {
+        const int i = ((jj + (k - k0)) % 2 == 0) ? i0 + ii : i1 - 1 - ii;
+        const std::size_t v = grid.index(i, j, k);
+        if (vf_.state[v] == VoxelState::candidate) voxels_.push_back(v);
+      }
+    }
+  if (voxels_.empty()) return;
+  const Vec3 c0 = grid.center(i0, j0, k0), c1 = grid.center(i1 - 1, j1 - 1, k1 - 1);
+  const Vec3 bc = 0.5 * (c0 + c1);
+  const double beta = 0.5 * (c1 - c0).norm() * (1.0 + 1e-12);
+  // The block's clusters, by decreasing bound (a voxel stops at the first bound <= its maximum).
+  log_bounds(all_, all_.n, bc, beta, W_, block_lb_.data());
+  bounds += all_.n;
+  order_.clear();
+  for (std::size_t ci = 0; ci < all_.n; ++ci)
+    if (block_lb_[ci] > log_tol_) order_.push_back(static_cast<int>(ci));
+  std::sort(order_.begin(), order_.end(), [&](int x, int y) {
+    return block_lb_[std::size_t(x)] > block_lb_[std::size_t(y)] ||
+           (block_lb_[std::size_t(x)] == block_lb_[std::size_t(y)] && x < y);
+  });
+  list_.n = order_.size();
+  for (std::size_t t = 0; t < order_.size(); ++t) {
+    const auto ci = static_cast<std::size_t>(order_[t]);
+    list_.set(t, cs_.clusters[ci], order_[t]);
+    block_sorted_[t] = block_lb_[ci];
+  }
+  int seed = -1;
+  for (const std::size_t v : voxels_) voxel(v, seed);
+}
+
+void BlockSearch::estimate(const Cluster& cl, const Vec3& q) {
+  using A4 = Eigen::Array4d;
+  using M4 = Eigen::Map<const A4>;
+  const auto& cs = cs_;
+  const auto& W = W_;
+  const std::size_t nb = cl.end - cl.begin;
+  auto chunk = [&](std::size_t o0) {
+    const A4 dx = q.x() - M4(cs.px.data() + o0), dy = q.y() - M4(cs.py.data() + o0), dz = q.z() - M4(cs.pz.data() + o0);
+    const A4 rr = (dx.square() + dy.square() + dz.square()).sqrt();
+    const A4 cth = (M4(cs.nx.data() + o0) * dx + M4(cs.ny.data() + o0) * dy + M4(cs.nz.data() + o0) * dz) / rr;
+    Eigen::Map<A4>(val_.data() + o0) =
+        M4(cs.loga.data() + o0) - ((rr - W.d_o).square() * W.inv_sd2 + (1.0 - cth).square() * W.inv_so2);
+  };
+  if (nb >= 4) {
+    for (std::size_t o0 = cl.begin; o0 + 4 <= cl.end; o0 += 4) chunk(o0);
+    if (nb % 4 != 0) chunk(cl.end - 4);
+  } else {
+    for (std::size_t i = cl.begin; i < cl.end; ++i) {
+      const Vec3 d = q - Vec3(cs.px[i], cs.py[i], cs.pz[i]);
+      const double rr = d.norm();
+      const double cth = Vec3(cs.nx[i], cs.ny[i], cs.nz[i]).dot(d) / rr;
+      val_[i] = cs.loga[i] - ((rr - W.d_o) * (rr - W.d_o) * W.inv_sd2 + (1.0 - cth) * (1.0 - cth) * W.inv_so2);
+    }
+  }
+}
+
+void BlockSearch::voxel(std::size_t v, int& seed) {
+  const Vec3 q = vf_.grid.center(v);
+  double best = 0.0;
+  int arg = -1;
+  double thr = tol_, log_thr = log_tol_;
+  if (seed >= 0) {
+    const auto k = static_cast<std::size_t>(seed);
+    const double u = iso_.a[k] * pair_weight(W_, q, iso_.p[k], iso_.n[k]);
+    ++pairs;
+    if (u > thr) {
+      ++rays;
+      if (!scene_.occluded(q, iso_.end[k])) {
+        best = thr = u;
+        log_thr = std::log(u);
+        arg = seed;
+      }
+    }
+  }
+  // Clusters whose block bound exceeds the running maximum: bound them for this voxel.
+  const std::size_t npre = static_cast<std::size_t>(
+      std::partition_point(block_sorted_.begin(), block_sorted_.begin() + static_cast<std::ptrdiff_t>(list_.n),
+                           [&](double x) { return x > log_thr; }) -
+      block_sorted_.begin());
+  log_bounds(list_, npre, q, 0.0, W_, voxel_lb_.data());
+  bounds += npre;
+  todo_.clear();
+  for (std::size_t t = 0; t < npre; ++t)
+    if (voxel_lb_[t] > log_thr) todo_.emplace_back(voxel_lb_[t], static_cast<int>(t));
+  std::sort(todo_.begin(), todo_.end(), [](const auto& x, const auto& y) {
+    return x.first > y.first || (x.first == y.first && x.second < y.second);
+  });
+  for (const auto& [vb, t] : todo_) {
+    if (vb <= log_thr) break;  // sorted: no later cluster can beat `best`
+    const Cluster& cl = cs_.clusters[static_cast<std::size_t>(list_.id[static_cast<std::size_t>(t)])];
+    // Log-domain estimate for every point, exact value for the survivors.
+    estimate(cl, q);
+    pairs += cl.end - cl.begin;
+    cand_.clear();
+    for (std::size_t i = cl.begin; i < cl.end; ++i) {
+      if (val_[i] <= log_thr - 1e-9) continue;  // clearly not above the running maximum
+      const auto k = static_cast<std::size_t>(cs_.idx[i]);
+      const double u = iso_.a[k] * pair_weight(W_, q, iso_.p[k], iso_.n[k]);  // the reference's value
+      if (u > thr) cand_.emplace_back(u, cs_.idx[i]);
+    }
+    if (cand_.empty()) continue;
+    std::sort(cand_.begin(), cand_.end(), [](const auto& x, const auto& y) {
+      return x.first > y.first || (x.first == y.first && x.second < y.second);
+    });
+    for (const auto& [u, k] : cand_) {
+      ++rays;
+      if (!scene_.occluded(q, iso_.end[static_cast<std::size_t>(k)])) {
+        best = thr = u;
+        log_thr = std::log(u);
+        arg = k;
+        break;  // the rest of this cluster's candidates are smaller
+      }
+    }
+  }
+  vf_.g[v] = best;
+  vf_.argmax[v] = arg;
+  if (arg >= 0) seed = arg;
+}
+
 void vvf_fast(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
               const NbvOptions& o, NbvDiagnostics& diag) {
   const double tol = o.tolerance;
@@ -400,150 +582,17 @@ void vvf_fast(ViewingField& vf, const IsoData& iso, const spatial::RayScene& sce
   all.reserve(cs.clusters.size());
   all.n = cs.clusters.size();
   for (std::size_t ci = 0; ci < cs.clusters.size(); ++ci) all.set(ci, cs.clusters[ci], static_cast<int>(ci));
-  const auto& grid = vf.grid;
-  const auto& dims = grid.dims;
+  const auto& dims = vf.grid.dims;
   const int b = std::max(1, o.block_size);
   const int nbx = (dims[0] + b - 1) / b, nby = (dims[1] + b - 1) / b, nbz = (dims[2] + b - 1) / b;
   const std::size_t nblocks = std::size_t(nbx) * nby * nbz;
-  const double log_tol = std::log(tol);
   std::atomic<std::size_t> pairs_total{0}, rays_total{0}, bounds_total{0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nblocks), [&](const tbb::blocked_range<std::size_t>& r) {
-    std::size_t pairs = 0, rays = 0, bounds = 0;
-    std::vector<double> block_lb(all.n), voxel_lb(all.n), block_sorted(all.n), val(cs.px.size());
-    std::vector<int> order;
-    BoundSoA list;
-    list.reserve(all.n);
-    std::vector<std::pair<double, int>> todo;  // (voxel bound, position in list)
-    std::vector<std::pair<double, int>> cand;  // (value, iso-point index)
-    std::vector<std::size_t> voxels;
-    for (std::size_t blk = r.begin(); blk != r.end(); ++blk) {
-      const int bx = static_cast<int>(blk % nbx), by = static_cast<int>((blk / nbx) % nby),
-                bz = static_cast<int>(blk / (std::size_t(nbx) * nby));
-      const int i0 = bx * b, j0 = by * b, k0 = bz * b;
-      const int i1 = std::min(i0 + b, dims[0]), j1 = std::min(j0 + b, dims[1]), k1 = std::min(k0 + b, dims[2]);
-      voxels.clear();
-      // Serpentine order so that consecutive voxels are neighbours (good seeds).
-      for (int k = k0; k < k1; ++k)
-        for (int jj = 0; jj < j1 - j0; ++jj) {
-          const int j = ((k - k0) % 2 == 0) ? j0 + jj : j1 - 1 - jj;
-          for (int ii = 0; ii < i1 - i0; ++ii) {
-            const int i = ((jj + (k - k0)) % 2 == 0) ? i0 + ii : i1 - 1 - ii;
-            const std::size_t v = grid.index(i, j, k);
-            if (vf.state[v] == VoxelState::candidate) voxels.push_back(v);
-          }
-        }
-      if (voxels.empty()) continue;
-      const Vec3 c0 = grid.center(i0, j0, k0), c1 = grid.center(i1 - 1, j1 - 1, k1 - 1);
-      const Vec3 bc = 0.5 * (c0 + c1);
-      const double beta = 0.5 * (c1 - c0).norm() * (1.0 + 1e-12);
-      // The block's clusters, by decreasing bound (a voxel stops at the first bound <= its maximum).
-      log_bounds(all, all.n, bc, beta, W, block_lb.data());
-      bounds += all.n;
-      order.clear();
-      for (std::size_t ci = 0; ci < all.n; ++ci)
-        if (block_lb[ci] > log_tol) order.push_back(static_cast<int>(ci));
-      std::sort(order.begin(), order.end(), [&](int x, int y) {
-        return block_lb[std::size_t(x)] > block_lb[std::size_t(y)] ||
-               (block_lb[std::size_t(x)] == block_lb[std::size_t(y)] && x < y);
-      });
-      list.n = order.size();
-      for (std::size_t t = 0; t < order.size(); ++t) {
-        const auto ci = static_cast<std::size_t>(order[t]);
-        list.set(t, cs.clusters[ci], order[t]);
-        block_sorted[t] = block_lb[ci];
-      }
-      int seed = -1;
-      for (const std::size_t v : voxels) {
-        const Vec3 q = grid.center(v);
-        double best = 0.0;
-        int arg = -1;
-        double thr = tol, log_thr = log_tol;
-        if (seed >= 0) {
-          const auto k = static_cast<std::size_t>(seed);
-          const double u = iso.a[k] * pair_weight(W, q, iso.p[k], iso.n[k]);
-          ++pairs;
-          if (u > thr) {
-            ++rays;
-            if (!scene.occluded(q, iso.end[k])) {
-              best = thr = u;
-              log_thr = std::log(u);
-              arg = seed;
-            }
-          }
-        }
-        // Clusters whose block bound exceeds the running maximum: bound them for this voxel.
-        const std::size_t npre = static_cast<std::size_t>(
-            std::partition_point(block_sorted.begin(), block_sorted.begin() + static_cast<std::ptrdiff_t>(list.n),
-                                 [&](double x) { return x > log_thr; }) -
-            block_sorted.begin());
-        log_bounds(list, npre, q, 0.0, W, voxel_lb.data());
-        bounds += npre;
-        todo.clear();
-        for (std::size_t t = 0; t < npre; ++t)
-          if (voxel_lb[t] > log_thr) todo.emplace_back(voxel_lb[t], static_cast<int>(t));
-        std::sort(todo.begin(), todo.end(), [](const auto& x, const auto& y) {
-          return x.first > y.first || (x.first == y.first && x.second < y.second);
-        });
-        for (const auto& [vb, t] : todo) {
-          if (vb <= log_thr) break;  // sorted: no later cluster can beat `best`
-          const Cluster& cl = cs.clusters[static_cast<std::size_t>(list.id[static_cast<std::size_t>(t)])];
-          // Log-domain estimate for every point (vectorised in fixed chunks of 4; a last chunk
-          // may overlap the previous one), exact value for the survivors.
-          {
-            using A4 = Eigen::Array4d;
-            using M4 = Eigen::Map<const A4>;
-            const std::size_t nb = cl.end - cl.begin;
-            auto chunk = [&](std::size_t o0) {
-              const A4 dx = q.x() - M4(cs.px.data() + o0), dy = q.y() - M4(cs.py.data() + o0),
-                       dz = q.z() - M4(cs.pz.data() + o0);
-              const A4 rr = (dx.square() + dy.square() + dz.square()).sqrt();
-              const A4 cth =
-                  (M4(cs.nx.data() + o0) * dx + M4(cs.ny.data() + o0) * dy + M4(cs.nz.data() + o0) * dz) / rr;
-              Eigen::Map<A4>(val.data() + o0) =
-                  M4(cs.loga.data() + o0) - ((rr - W.d_o).square() * W.inv_sd2 + (1.0 - cth).square() * W.inv_so2);
-            };
-            if (nb >= 4) {
-              for (std::size_t o0 = cl.begin; o0 + 4 <= cl.end; o0 += 4) chunk(o0);
-              if (nb % 4 != 0) chunk(cl.end - 4);
-            } else {
-              for (std::size_t i = cl.begin; i < cl.end; ++i) {
-                const Vec3 d = q - Vec3(cs.px[i], cs.py[i], cs.pz[i]);
-                const double rr = d.norm();
-                const double cth = Vec3(cs.nx[i], cs.ny[i], cs.nz[i]).dot(d) / rr;
-                val[i] = cs.loga[i] - ((rr - W.d_o) * (rr - W.d_o) * W.inv_sd2 + (1.0 - cth) * (1.0 - cth) * W.inv_so2);
-              }
-            }
-          }
-          pairs += cl.end - cl.begin;
-          cand.clear();
-          for (std::size_t i = cl.begin; i < cl.end; ++i) {
-            if (val[i] <= log_thr - 1e-9) continue;  // clearly not above the running maximum
-            const auto k = static_cast<std::size_t>(cs.idx[i]);
-            const double u = iso.a[k] * pair_weight(W, q, iso.p[k], iso.n[k]);  // the reference's value
-            if (u > thr) cand.emplace_back(u, cs.idx[i]);
-          }
-          if (cand.empty()) continue;
-          std::sort(cand.begin(), cand.end(), [](const auto& x, const auto& y) {
-            return x.first > y.first || (x.first == y.first && x.second < y.second);
-          });
-          for (const auto& [u, k] : cand) {
-            ++rays;
-            if (!scene.occluded(q, iso.end[static_cast<std::size_t>(k)])) {
-              best = thr = u;
-              log_thr = std::log(u);
-              arg = k;
-              break;  // the rest of this cluster's candidates are smaller
-            }
-          }
-        }
-        vf.g[v] = best;
-        vf.argmax[v] = arg;
-        if (arg >= 0) seed = arg;
-      }
-    }
-    pairs_total += pairs;
-    rays_total += rays;
-    bounds_total += bounds;
+    BlockSearch search(vf, iso, scene, W, cs, all, tol, b);
+    for (std::size_t blk = r.begin(); blk != r.end(); ++blk) search.block(blk);
+    pairs_total += search.pairs;
+    rays_total += search.rays;
+    bounds_total += search.bounds;
   });
   diag.pair_evaluations = pairs_total.load();
   diag.rays_cast = rays_total.load();

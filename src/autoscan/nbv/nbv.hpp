@@ -12,7 +12,7 @@
 //  * the scanner (ScannerSpec: d_n = near, d_f = far, d_o = optimal_distance(), field of view);
 //  * the robot rig (reachability, travel cost) and the scanner's current pose.
 //
-// Typical use (the planner keeps the Embree scene of the mesh between calls, STYLE.md §6):
+// Typical use (the planner keeps the Embree scene of the mesh between calls, docs/conventions.md, "Build once, query many"):
 //   nbv::NbvPlanner planner(mesh, scanner, rig);
 //   nbv::PlanResult r = planner.plan(iso_points, current_pose);
 //   nbv::write_views_json("views.json", r);

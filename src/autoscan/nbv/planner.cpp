@@ -163,6 +163,61 @@ AimResult aim(const Vec3& v, int seed, const detail::IsoData& iso, const spatial
   return res;
 }
 
+// The views' cells: the grid of §5.2 (o.cells per axis, at most the voxel grid).
+struct CellGrid {
+  int C[3];
+  std::size_t size() const { return std::size_t(C[0]) * C[1] * C[2]; }
+};
+
+struct CellMax {
+  std::size_t voxel;
+  std::size_t cell;
+  double g;
+};
+
+// §5.2: the best candidate voxel of each cell, at least min_score, by decreasing g (ties: voxel).
+std::vector<CellMax> cell_maxima(const ViewingField& vf, const CellGrid& cg, const NbvOptions& o,
+                                 NbvDiagnostics& diag) {
+  const auto& dims = vf.grid.dims;
+  const int* C = cg.C;
+  std::vector<long long> cell_best(cg.size(), -1);
+  for (std::size_t v = 0; v < vf.grid.size(); ++v) {
+    if (vf.state[v] != VoxelState::candidate || !(vf.g[v] > 0.0)) continue;
+    const auto c = vf.grid.ijk(v);
+    const int x = c[0] * C[0] / dims[0], y = c[1] * C[1] / dims[1], z = c[2] * C[2] / dims[2];
+    const std::size_t ci = std::size_t(x) + std::size_t(C[0]) * (y + std::size_t(C[1]) * z);
+    if (cell_best[ci] < 0 || vf.g[v] > vf.g[static_cast<std::size_t>(cell_best[ci])])
+      cell_best[ci] = static_cast<long long>(v);
+  }
+  std::vector<CellMax> maxima;
+  for (std::size_t ci = 0; ci < cg.size(); ++ci)
+    if (cell_best[ci] >= 0)
+      maxima.push_back({static_cast<std::size_t>(cell_best[ci]), ci, vf.g[static_cast<std::size_t>(cell_best[ci])]});
+  diag.cell_maxima = maxima.size();
+  std::erase_if(maxima, [&](const CellMax& m) { return m.g < o.min_score; });
+  diag.above_threshold = maxima.size();
+  if (diag.active_points > 0 && maxima.empty())
+    diag.messages.push_back(fmt::format("no voxel scores g >= min_score = {} (largest g = {:.3g}): no views",
+                                        o.min_score, vf.g.empty() ? 0.0 : *std::max_element(vf.g.begin(), vf.g.end())));
+  std::sort(maxima.begin(), maxima.end(),
+            [](const CellMax& a, const CellMax& b) { return a.g > b.g || (a.g == b.g && a.voxel < b.voxel); });
+  return maxima;
+}
+
+// Marks the 26 neighbouring cells of `cell` (and itself) as taken.
+void block_neighbours(const CellGrid& cg, std::size_t cell, std::vector<char>& blocked) {
+  const int* C = cg.C;
+  const int cx = static_cast<int>(cell % C[0]), cy = static_cast<int>((cell / C[0]) % C[1]),
+            cz = static_cast<int>(cell / (std::size_t(C[0]) * C[1]));
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = cx + dx, y = cy + dy, z = cz + dz;
+        if (x < 0 || y < 0 || z < 0 || x >= C[0] || y >= C[1] || z >= C[2]) continue;
+        blocked[std::size_t(x) + std::size_t(C[0]) * (y + std::size_t(C[1]) * z)] = 1;
+      }
+}
+
 }  // namespace
 
 PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>& from, const ImplicitField* field,
@@ -187,40 +242,10 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
   // ---- §5.2: per-cell maxima, threshold, greedy non-adjacent choice ---------------------------------
   Stopwatch sw;
   const auto& dims = vf.grid.dims;
-  const int C[3] = {std::min(o.cells, dims[0]), std::min(o.cells, dims[1]), std::min(o.cells, dims[2])};
-  const std::size_t ncells = std::size_t(C[0]) * C[1] * C[2];
-  auto cell_of = [&](std::size_t v) {
-    const auto c = vf.grid.ijk(v);
-    const int x = c[0] * C[0] / dims[0], y = c[1] * C[1] / dims[1], z = c[2] * C[2] / dims[2];
-    return std::array<int, 3>{x, y, z};
-  };
-  std::vector<long long> cell_best(ncells, -1);
-  for (std::size_t v = 0; v < vf.grid.size(); ++v) {
-    if (vf.state[v] != VoxelState::candidate || !(vf.g[v] > 0.0)) continue;
-    const auto c = cell_of(v);
-    const std::size_t ci = std::size_t(c[0]) + std::size_t(C[0]) * (c[1] + std::size_t(C[1]) * c[2]);
-    if (cell_best[ci] < 0 || vf.g[v] > vf.g[static_cast<std::size_t>(cell_best[ci])])
-      cell_best[ci] = static_cast<long long>(v);
-  }
-  struct Max {
-    std::size_t voxel;
-    std::size_t cell;
-    double g;
-  };
-  std::vector<Max> maxima;
-  for (std::size_t ci = 0; ci < ncells; ++ci)
-    if (cell_best[ci] >= 0)
-      maxima.push_back({static_cast<std::size_t>(cell_best[ci]), ci, vf.g[static_cast<std::size_t>(cell_best[ci])]});
-  diag.cell_maxima = maxima.size();
-  std::erase_if(maxima, [&](const Max& m) { return m.g < o.min_score; });
-  diag.above_threshold = maxima.size();
-  if (diag.active_points > 0 && maxima.empty())
-    diag.messages.push_back(fmt::format("no voxel scores g >= min_score = {} (largest g = {:.3g}): no views",
-                                        o.min_score, vf.g.empty() ? 0.0 : *std::max_element(vf.g.begin(), vf.g.end())));
-  std::sort(maxima.begin(), maxima.end(),
-            [](const Max& a, const Max& b) { return a.g > b.g || (a.g == b.g && a.voxel < b.voxel); });
+  const CellGrid cg{{std::min(o.cells, dims[0]), std::min(o.cells, dims[1]), std::min(o.cells, dims[2])}};
+  const std::vector<CellMax> maxima = cell_maxima(vf, cg, o, diag);
   const detail::Weights W = detail::Weights::make(sc, o);
-  std::vector<char> blocked(ncells, 0);
+  std::vector<char> blocked(cg.size(), 0);
   std::vector<NbvView> chosen;
   for (const auto& m : maxima) {
     if (static_cast<int>(chosen.size()) >= o.max_views) break;
@@ -248,16 +273,7 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
     view.eta = a.eta;
     view.zeta = a.zeta;
     chosen.push_back(view);
-    // Remove the 26 neighbouring cells (and this one) from V.
-    const int cx = static_cast<int>(m.cell % C[0]), cy = static_cast<int>((m.cell / C[0]) % C[1]),
-              cz = static_cast<int>(m.cell / (std::size_t(C[0]) * C[1]));
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = cx + dx, y = cy + dy, z = cz + dz;
-          if (x < 0 || y < 0 || z < 0 || x >= C[0] || y >= C[1] || z >= C[2]) continue;
-          blocked[std::size_t(x) + std::size_t(C[0]) * (y + std::size_t(C[1]) * z)] = 1;
-        }
+    block_neighbours(cg, m.cell, blocked);  // remove the 26 neighbouring cells (and this one) from V
   }
   if (diag.dropped_unreachable > 0)
     diag.messages.push_back(fmt::format("{} view(s) dropped: outside the {} rig's reach", diag.dropped_unreachable,

@@ -1,4 +1,4 @@
-// Outputs of the nbv stage: views JSON (../shared/PRODUCT.md), the field as NRRD, a slice as PNG.
+// Outputs of the nbv stage: views JSON (docs/conventions.md), the field as NRRD, a slice as PNG.
 #include <png.h>
 
 #include <algorithm>

@@ -120,7 +120,7 @@ double path_length(const Rig& rig, const Pose& current, const std::vector<Planne
 /// input order). Planners without their own ordering use it.
 std::vector<PlannedView> order_greedy(const Rig& rig, const Pose& current, std::vector<PlannedView> views);
 
-/// The views file (../shared/PRODUCT.md): {"views":[{"position","direction","up","score","target"}...],
+/// The views file (docs/conventions.md): {"views":[{"position","direction","up","score","target"}...],
 /// "path_length": L}. Extra top-level fields of `extra` are merged in (e.g. "planner", "iteration").
 nlohmann::json views_to_json(const PlanOutput& out, const nlohmann::json& extra = nlohmann::json::object());
 /// Parses a views file's JSON. Throws InputError naming `what`.

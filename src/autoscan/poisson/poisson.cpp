@@ -260,11 +260,22 @@ class Solver {
 
  private:
   void estimate_density();
+  struct DensityCells;
+  int choose_density_depth() const;
+  DensityCells density_cells(int k) const;
+  template <class F, class Visit>
+  void kernel_sums(const DensityCells& cells, F&& f, Visit&& visit) const;
+  void assign_splat_depths(const DensityCells& cells);
+  void splat_density_grid(const DensityCells& cells);
   void build_levels();
   void build_level_cells(Level& L);
   void build_neighbours(const Level& L, std::vector<std::int32_t>& nbr) const;
   void compute_rhs();
   void solve(FieldData& field);
+  struct LevelSystem;
+  void add_coarse_divergence(Level& L, const std::vector<std::int32_t>& nbr, const std::vector<Vec3>& W) const;
+  static int pcg(const LevelSystem& A, const std::vector<double>& diag, std::vector<double>& r, std::vector<double>& x,
+                 int max_iterations, double target, double& residual);
 
   /// Trilinear weights of sample p in its cell at level L (corner k: bits x, y, z).
   static void weights(const Level& L, const Vec3& u, double w[8]) {
@@ -295,12 +306,21 @@ class Solver {
   FieldLevel density_;
 };
 
-void Solver::estimate_density() {
+// The depth-k cells that hold samples: runs of the Morton-sorted samples.
+struct Solver::DensityCells {
+  int k = 1;
+  int nk = 2;                             ///< 2^k cells per axis
+  std::vector<std::uint32_t> run_begin;   ///< cells + 1 entries, into the samples
+  KeyIndex runs;                          ///< Morton code at depth k -> cell
+  std::vector<std::uint64_t> cell_keys;   ///< pack() key of each cell
+  double r = 0.5, r2 = 0.25, norm = 0.0;  ///< kernel radius (one cell), r^2, its plane integral pi r^2 / 3
+};
+
+// The finest depth whose occupied cells hold kDensitySamplesPerCell samples on average (Morton
+// prefixes are runs).
+int Solver::choose_density_depth() const {
   const std::size_t N = s_.u.size();
-  // The samples are stored in Morton order (Solver::run): a cell's samples are consecutive at every
-  // depth, so the kernel sums below read contiguous runs.
-  // Occupied cells per depth (Morton prefixes are runs).
-  density_depth_ = 1;
+  int depth = 1;
   for (int d = 1; d <= D_; ++d) {
     const int shift = 3 * (D_ - d);
     std::size_t cells = 0;
@@ -310,112 +330,134 @@ void Solver::estimate_density() {
       cells += (c != prev);
       prev = c;
     }
-    if (static_cast<double>(N) / static_cast<double>(cells) >= kDensitySamplesPerCell) density_depth_ = d;
+    if (static_cast<double>(N) / static_cast<double>(cells) >= kDensitySamplesPerCell) depth = d;
   }
-  diag_.density_depth = density_depth_;
-  const int k = density_depth_, shift = 3 * (D_ - k), nk = 1 << k;
-  // Runs of cells at depth k.
+  return depth;
+}
+
+Solver::DensityCells Solver::density_cells(int k) const {
+  const std::size_t N = s_.u.size();
+  DensityCells cells;
+  cells.k = k;
+  cells.nk = 1 << k;
+  const int shift = 3 * (D_ - k), nk = cells.nk;
   std::vector<std::uint64_t> run_code;
-  std::vector<std::uint32_t> run_begin;
   for (std::size_t j = 0; j < N; ++j) {
     const std::uint64_t c = s_.code[j] >> shift;
     if (run_code.empty() || run_code.back() != c) {
       run_code.push_back(c);
-      run_begin.push_back(static_cast<std::uint32_t>(j));
+      cells.run_begin.push_back(static_cast<std::uint32_t>(j));
     }
   }
-  run_begin.push_back(static_cast<std::uint32_t>(N));
-  KeyIndex runs;
-  runs.build(run_code);
-  const std::size_t ncells = run_code.size();
-  std::vector<std::uint64_t> cell_keys(ncells);  // pack() key of each run's cell
-  tbb::parallel_for(std::size_t{0}, ncells, [&](std::size_t c) {
-    const Vec3& u = s_.u[run_begin[c]];
+  cells.run_begin.push_back(static_cast<std::uint32_t>(N));
+  cells.runs.build(run_code);
+  cells.cell_keys.resize(run_code.size());
+  tbb::parallel_for(std::size_t{0}, run_code.size(), [&](std::size_t c) {
+    const Vec3& u = s_.u[cells.run_begin[c]];
     int x[3];
     for (int a = 0; a < 3; ++a) x[a] = std::clamp(static_cast<int>(u[a] * nk), 0, nk - 1);
-    cell_keys[c] = pack(x[0], x[1], x[2]);
+    cells.cell_keys[c] = pack(x[0], x[1], x[2]);
   });
-  // Area density at each sample: sum_q w_q phi(|u_p - u_q| / r) / (pi r^2 / 3), phi(t) = (1-t^2)^2,
-  // whose integral over a plane through the centre is pi r^2 / 3; neighbours q facing away
-  // (n_p . n_q <= 0) are on the other side of a thin part and do not count.
-  const double r = 1.0 / nk, r2 = r * r, norm = std::numbers::pi * r2 / 3.0;
+  cells.r = 1.0 / nk;
+  cells.r2 = cells.r * cells.r;
+  cells.norm = std::numbers::pi * cells.r2 / 3.0;
+  return cells;
+}
+
+// Kernel sums cell by cell: the candidates of every sample of cell c are the runs of the 27 cells
+// around c. visit(j, sum of w_q phi_q f(q), sum of w_q phi_q) for every sample j, phi(t) = (1-t^2)^2
+// with t = |u_j - u_q| / r; neighbours q facing away (n_j . n_q <= 0) are on the other side of a
+// thin part and do not count.
+template <class F, class Visit>
+void Solver::kernel_sums(const DensityCells& cells, F&& f, Visit&& visit) const {
+  const int nk = cells.nk;
+  const double r2 = cells.r2;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.cell_keys.size(), 64), [&](const auto& rg) {
+    std::pair<std::uint32_t, std::uint32_t> nb[27];
+    for (std::size_t c = rg.begin(); c != rg.end(); ++c) {
+      const std::uint64_t ck = cells.cell_keys[c];
+      const int cx = key_x(ck), cy = key_y(ck), cz = key_z(ck);
+      int m = 0;
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int x = cx + dx, y = cy + dy, z = cz + dz;
+            if (x < 0 || y < 0 || z < 0 || x >= nk || y >= nk || z >= nk) continue;
+            const int ri = cells.runs.find(morton(x, y, z));
+            if (ri >= 0) nb[m++] = {cells.run_begin[ri], cells.run_begin[ri + 1]};
+          }
+      for (std::uint32_t j = cells.run_begin[c]; j < cells.run_begin[c + 1]; ++j) {
+        const Vec3 u = s_.u[j], n = s_.n[j];
+        double sum = 0.0, ws = 0.0;
+        for (int b = 0; b < m; ++b)
+          for (std::uint32_t q = nb[b].first; q < nb[b].second; ++q) {
+            const double d2 = (s_.u[q] - u).squaredNorm();
+            // Only the same side of a thin sheet counts (opposite normals: the other side).
+            if (d2 < r2 && s_.n[q].dot(n) > 0.0) {
+              const double t = 1.0 - d2 / r2;
+              const double wt = s_.w[q] * t * t;
+              sum += wt * f(q);
+              ws += wt;
+            }
+          }
+        visit(j, sum, ws);
+      }
+    }
+  });
+}
+
+// Area density at each sample: sum_q w_q phi(|u_p - u_q| / r) / (pi r^2 / 3) (the kernel's integral
+// over a plane through its centre), a_p = 1 / density; and the splat depth from the density.
+void Solver::assign_splat_depths(const DensityCells& cells) {
+  const std::size_t N = s_.u.size();
   s_.area.assign(N, 0.0);
   s_.depth.assign(N, 0);
   s_.frac.assign(N, 1.0);
   s_.refine.assign(N, 0);
   const double spn = opt_.samples_per_node;
   const int min_depth = std::min(opt_.full_depth, D_);
-  // Kernel sums cell by cell: the candidates of every sample of cell c are the runs of the 27 cells
-  // around c. visit(j, sum of w_q phi_q f(q), sum of w_q phi_q) for every sample j.
-  auto kernel_sums = [&](auto&& f, auto&& visit) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ncells, 64), [&](const auto& rg) {
-      std::pair<std::uint32_t, std::uint32_t> nb[27];
-      for (std::size_t c = rg.begin(); c != rg.end(); ++c) {
-        const std::uint64_t ck = cell_keys[c];
-        const int cx = key_x(ck), cy = key_y(ck), cz = key_z(ck);
-        int m = 0;
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int x = cx + dx, y = cy + dy, z = cz + dz;
-              if (x < 0 || y < 0 || z < 0 || x >= nk || y >= nk || z >= nk) continue;
-              const int ri = runs.find(morton(x, y, z));
-              if (ri >= 0) nb[m++] = {run_begin[ri], run_begin[ri + 1]};
-            }
-        for (std::uint32_t j = run_begin[c]; j < run_begin[c + 1]; ++j) {
-          const Vec3 u = s_.u[j], n = s_.n[j];
-          double sum = 0.0, ws = 0.0;
-          for (int b = 0; b < m; ++b)
-            for (std::uint32_t q = nb[b].first; q < nb[b].second; ++q) {
-              const double d2 = (s_.u[q] - u).squaredNorm();
-              // Only the same side of a thin sheet counts (opposite normals: the other side).
-              if (d2 < r2 && s_.n[q].dot(n) > 0.0) {
-                const double t = 1.0 - d2 / r2;
-                const double wt = s_.w[q] * t * t;
-                sum += wt * f(q);
-                ws += wt;
-              }
-            }
-          visit(j, sum, ws);
-        }
-      }
-    });
-  };
   std::vector<double> logrho(N);
-  kernel_sums([](std::uint32_t) { return 1.0; },
-              [&](std::uint32_t j, double sum, double) {
-                const double rho = sum / norm;  // > 0 (itself)
-                s_.area[j] = 1.0 / rho;
-                logrho[j] = std::log2(rho);
-              });
-  kernel_sums([&](std::uint32_t q) { return logrho[q]; },
-              [&](std::uint32_t i, double sum, double ws) {
-                // The splat depth follows the density averaged once more over the kernel, so that it
-                // changes along smooth fronts rather than from sample to sample (a patchy octree makes
-                // bumps).
-                const double lr = sum / ws;
-                // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at
-                // floor(sd), so that the kernel width varies smoothly with the density.
-                const double sd = 0.5 * (lr - std::log2(spn));
-                // The octree is refined around the sample down to its finest splat depth.
-                if (sd >= D_) {
-                  s_.depth[i] = static_cast<std::int8_t>(D_);
-                  s_.frac[i] = 1.0;
-                  s_.refine[i] = static_cast<std::int8_t>(D_);
-                } else if (sd < min_depth) {
-                  s_.depth[i] = static_cast<std::int8_t>(min_depth);
-                  s_.frac[i] = 1.0;
-                  s_.refine[i] = s_.depth[i];
-                } else {
-                  const int s0 = static_cast<int>(std::floor(sd));
-                  const double t = sd - s0;
-                  s_.depth[i] = static_cast<std::int8_t>(t > 0.0 ? s0 + 1 : s0);
-                  s_.frac[i] = t > 0.0 ? t : 1.0;
-                  s_.refine[i] = s_.depth[i];
-                }
-              });
-  // Density output grid: corners of the depth-k cells that hold samples, trilinear splat of w_p
-  // normalised by the mean plane integral of the kernel (2/3 h^2): samples per unit area.
+  kernel_sums(
+      cells, [](std::uint32_t) { return 1.0; },
+      [&](std::uint32_t j, double sum, double) {
+        const double rho = sum / cells.norm;  // > 0 (itself)
+        s_.area[j] = 1.0 / rho;
+        logrho[j] = std::log2(rho);
+      });
+  kernel_sums(
+      cells, [&](std::uint32_t q) { return logrho[q]; },
+      [&](std::uint32_t i, double sum, double ws) {
+        // The splat depth follows the density averaged once more over the kernel, so that it
+        // changes along smooth fronts rather than from sample to sample (a patchy octree makes
+        // bumps).
+        const double lr = sum / ws;
+        // Fractional splat depth (as PoissonRecon): share t at floor(sd) + 1, 1 - t at
+        // floor(sd), so that the kernel width varies smoothly with the density.
+        const double sd = 0.5 * (lr - std::log2(spn));
+        // The octree is refined around the sample down to its finest splat depth.
+        if (sd >= D_) {
+          s_.depth[i] = static_cast<std::int8_t>(D_);
+          s_.frac[i] = 1.0;
+          s_.refine[i] = static_cast<std::int8_t>(D_);
+        } else if (sd < min_depth) {
+          s_.depth[i] = static_cast<std::int8_t>(min_depth);
+          s_.frac[i] = 1.0;
+          s_.refine[i] = s_.depth[i];
+        } else {
+          const int s0 = static_cast<int>(std::floor(sd));
+          const double t = sd - s0;
+          s_.depth[i] = static_cast<std::int8_t>(t > 0.0 ? s0 + 1 : s0);
+          s_.frac[i] = t > 0.0 ? t : 1.0;
+          s_.refine[i] = s_.depth[i];
+        }
+      });
+}
+
+// Density output grid: corners of the depth-k cells that hold samples, trilinear splat of w_p
+// normalised by the mean plane integral of the kernel (2/3 h^2): samples per unit area.
+void Solver::splat_density_grid(const DensityCells& cells) {
+  const auto& cell_keys = cells.cell_keys;
+  const int nk = cells.nk;
   std::vector<std::uint64_t> corner_keys;
   corner_keys.reserve(cell_keys.size() * 8);
   for (std::uint64_t ck : cell_keys)
@@ -423,26 +465,26 @@ void Solver::estimate_density() {
       corner_keys.push_back(pack(key_x(ck) + (q & 1), key_y(ck) + ((q >> 1) & 1), key_z(ck) + ((q >> 2) & 1)));
   tbb::parallel_sort(corner_keys.begin(), corner_keys.end());
   corner_keys.erase(std::unique(corner_keys.begin(), corner_keys.end()), corner_keys.end());
-  density_.depth = k;
+  density_.depth = cells.k;
   density_.keys = std::move(corner_keys);
   density_.index.build(density_.keys);
   density_.value.assign(density_.keys.size(), 0.0);
-  const double dnorm = 1.0 / (r2 * 2.0 / 3.0);
+  const double dnorm = 1.0 / (cells.r2 * 2.0 / 3.0);
   // Colour the cells by parity so that scatters do not collide.
   std::array<std::vector<std::uint32_t>, 8> color;
   for (std::size_t c = 0; c < cell_keys.size(); ++c)
     color[(key_x(cell_keys[c]) & 1) | ((key_y(cell_keys[c]) & 1) << 1) | ((key_z(cell_keys[c]) & 1) << 2)].push_back(
         static_cast<std::uint32_t>(c));
-  for (const auto& cells : color)
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& rg) {
+  for (const auto& same : color)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, same.size(), 256), [&](const auto& rg) {
       for (std::size_t ci = rg.begin(); ci != rg.end(); ++ci) {
-        const std::uint32_t c = cells[ci];
+        const std::uint32_t c = same[ci];
         const std::uint64_t ck = cell_keys[c];
         int idx[8];
         for (int q = 0; q < 8; ++q)
           idx[q] =
               density_.index.find(pack(key_x(ck) + (q & 1), key_y(ck) + ((q >> 1) & 1), key_z(ck) + ((q >> 2) & 1)));
-        for (std::uint32_t j = run_begin[c]; j < run_begin[c + 1]; ++j) {
+        for (std::uint32_t j = cells.run_begin[c]; j < cells.run_begin[c + 1]; ++j) {
           double t[3];
           for (int a = 0; a < 3; ++a) t[a] = s_.u[j][a] * nk - key_x(ck >> (a * detail::kKeyBits));
           for (int q = 0; q < 8; ++q) {
@@ -453,6 +495,16 @@ void Solver::estimate_density() {
       }
     });
   density_.keys = {};
+}
+
+// The samples are stored in Morton order (Solver::run): a cell's samples are consecutive at every
+// depth, so the kernel sums read contiguous runs.
+void Solver::estimate_density() {
+  density_depth_ = choose_density_depth();
+  diag_.density_depth = density_depth_;
+  const DensityCells cells = density_cells(density_depth_);
+  assign_splat_depths(cells);
+  splat_density_grid(cells);
 }
 
 void Solver::build_level_cells(Level& L) {
@@ -656,6 +708,179 @@ void Solver::compute_rhs() {
   }
 }
 
+// The operator (L + S) of one depth's system on its active nodes (x on E, zero on the halo): the
+// Laplacian stencils and the screening term, sample p weighted alpha 2^min(d, s_p) w_p a_p.
+struct Solver::LevelSystem {
+  LevelSystem(const Level& level, const std::vector<std::int32_t>& neighbours, const Samples& samples, double screening,
+              std::size_t depth)
+      : L(level),
+        nbr(neighbours),
+        s(samples),
+        alpha(screening),
+        d(depth),
+        omega(screening * std::ldexp(1.0, static_cast<int>(depth))),
+        use_mat(omega > 0.0 && level.samples.size() >= 2 * (level.cell_begin.size() - 1)) {
+    // Laplacian stencils: constant away from the cube's faces.
+    stencils(1, 1, 1, std::max(L.n, 2), Lin, nullptr);
+    // Screening per cell: S restricted to a cell is the 8x8 matrix sum_p omega w_p a_p W(p) W(p)^T;
+    // precomputed when cells hold several samples (cheaper than visiting every sample each time).
+    if (!use_mat) return;
+    const std::size_t ncells = L.cell_begin.size() - 1;
+    cellmat.assign(ncells * 64, 0.0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ncells, 256), [&](const auto& r) {
+      for (std::size_t c = r.begin(); c != r.end(); ++c) {
+        double* M = &cellmat[c * 64];
+        for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
+          const std::uint32_t p = L.samples[j];
+          double w[8];
+          weights(L, s.u[p], w);
+          const double f = screen_weight(p);
+          for (int q = 0; q < 8; ++q)
+            for (int k = 0; k < 8; ++k) M[q * 8 + k] += f * w[q] * w[k];
+        }
+      }
+    });
+  }
+
+  const double* stencil_of(std::size_t a, double* out) const {
+    const std::uint64_t key = L.keys[L.act[a]];
+    const int x = key_x(key), y = key_y(key), z = key_z(key);
+    if (x > 0 && y > 0 && z > 0 && x < L.n && y < L.n && z < L.n) return Lin;
+    stencils(x, y, z, L.n, out, nullptr);
+    return out;
+  }
+  // Screening weight of sample p at this depth: alpha 2^min(d, s_p) w_p a_p.
+  double screen_weight(std::uint32_t p) const {
+    return alpha * std::ldexp(1.0, std::min(static_cast<int>(d), static_cast<int>(s.depth[p]))) * s.w[p] * s.area[p];
+  }
+
+  // y = (L + S) x on the active nodes.
+  void apply(const std::vector<double>& x, std::vector<double>& y) const {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, L.act.size(), 1024), [&](const auto& r) {
+      double buf[27];
+      for (std::size_t a = r.begin(); a != r.end(); ++a) {
+        const double* st = stencil_of(a, buf);
+        const std::int32_t* nb = &nbr[a * 27];
+        double sum = 0.0;
+        for (int k = 0; k < 27; ++k)
+          if (nb[k] >= 0) sum += st[k] * x[nb[k]];
+        y[L.act[a]] = sum;
+      }
+    });
+    if (omega > 0.0 && use_mat)
+      for_cells_coloured(L, [&](std::uint32_t c) {
+        const std::int32_t* idx = &L.corners[c * 8];
+        const double* M = &cellmat[std::size_t(c) * 64];
+        double xs[8];
+        for (int q = 0; q < 8; ++q) xs[q] = x[idx[q]];
+        for (int q = 0; q < 8; ++q) {
+          double v = 0.0;
+          for (int k = 0; k < 8; ++k) v += M[q * 8 + k] * xs[k];
+          y[idx[q]] += v;
+        }
+      });
+    else if (omega > 0.0)
+      for_cells_coloured(L, [&](std::uint32_t c) {
+        const std::int32_t* idx = &L.corners[c * 8];
+        for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
+          const std::uint32_t p = L.samples[j];
+          double w[8];
+          weights(L, s.u[p], w);
+          double v = 0.0;
+          for (int q = 0; q < 8; ++q) v += w[q] * x[idx[q]];
+          const double f = screen_weight(p) * v;
+          for (int q = 0; q < 8; ++q) y[idx[q]] += f * w[q];
+        }
+      });
+  }
+
+  // Adds the screening term's diagonal to diag (which holds the Laplacian's).
+  void add_screening_diagonal(std::vector<double>& diag) const {
+    if (!(omega > 0.0)) return;
+    for_cells_coloured(L, [&](std::uint32_t c) {
+      const std::int32_t* idx = &L.corners[c * 8];
+      for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
+        const std::uint32_t p = L.samples[j];
+        double w[8];
+        weights(L, s.u[p], w);
+        const double f = screen_weight(p);
+        for (int q = 0; q < 8; ++q) diag[idx[q]] += f * w[q] * w[q];
+      }
+    });
+  }
+
+  const Level& L;
+  const std::vector<std::int32_t>& nbr;
+  const Samples& s;
+  double alpha;
+  std::size_t d;
+  double omega;
+  bool use_mat;
+  double Lin[27];
+  std::vector<double> cellmat;
+};
+
+// b_d += Int V_{<d} . grad H: the coarser depths' splatted V, W as depth-d coefficients.
+void Solver::add_coarse_divergence(Level& L, const std::vector<std::int32_t>& nbr, const std::vector<Vec3>& W) const {
+  if (std::all_of(W.begin(), W.end(), [](const Vec3& w) { return w == Vec3::Zero(); })) return;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, L.act.size(), 1024), [&](const auto& r) {
+    Vec3 G[27];
+    for (std::size_t a = r.begin(); a != r.end(); ++a) {
+      const std::uint64_t key = L.keys[L.act[a]];
+      stencils(key_x(key), key_y(key), key_z(key), L.n, nullptr, G);
+      double sum = 0.0;
+      for (int k = 0; k < 27; ++k) {
+        const std::int32_t j = nbr[a * 27 + k];
+        if (j >= 0) sum += G[k].dot(W[j]);
+      }
+      L.b[L.act[a]] += sum;
+    }
+  });
+}
+
+// Jacobi-preconditioned conjugate gradients on the active nodes: x += the solution of A x = r,
+// r becomes the residual. Stops after max_iterations or when |r| <= target; returns the
+// iterations and the final |r| in `residual`.
+int Solver::pcg(const LevelSystem& A, const std::vector<double>& diag, std::vector<double>& r, std::vector<double>& x,
+                int max_iterations, double target, double& residual) {
+  const Level& L = A.L;
+  const std::size_t nE = L.keys.size(), nA = L.act.size();
+  std::vector<double> z(nE, 0.0), p(nE, 0.0), Ap(nE, 0.0);
+  auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {
+    return det_sum(nA, [&](std::size_t k) { return a[L.act[k]] * b[L.act[k]]; });
+  };
+  tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
+    const std::size_t i = L.act[a];
+    z[i] = r[i] / diag[i];
+    p[i] = z[i];
+  });
+  double rz = dot(r, z), rn = residual;
+  int it = 0;
+  while (it < max_iterations && rn > target && rn > 0.0) {
+    A.apply(p, Ap);
+    const double pAp = dot(p, Ap);
+    if (!(pAp > 0.0)) break;
+    const double alpha = rz / pAp;
+    tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
+      const std::size_t i = L.act[a];
+      x[i] += alpha * p[i];
+      r[i] -= alpha * Ap[i];
+      z[i] = r[i] / diag[i];
+    });
+    ++it;
+    rn = std::sqrt(dot(r, r));
+    const double rz_new = dot(r, z);
+    const double beta = rz_new / rz;
+    rz = rz_new;
+    tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
+      const std::size_t i = L.act[a];
+      p[i] = z[i] + beta * p[i];
+    });
+  }
+  residual = rn;
+  return it;
+}
+
 void Solver::solve(FieldData& field) {
   Progress prog(cb_, "poisson: solve");
   Stopwatch sw;
@@ -680,168 +905,32 @@ void Solver::solve(FieldData& field) {
     if (d > 0 && !Vc.empty()) prolong(field.levels[d - 1].index, Vc, L.keys, W);
     build_neighbours(L, nbr);
     // b_d = Int V_{>=d} . grad H (from compute_rhs) + Int V_{<d} . grad H.
-    bool any_coarse_v = false;
-    for (const Vec3& w : W)
-      if (w != Vec3::Zero()) {
-        any_coarse_v = true;
-        break;
-      }
-    if (any_coarse_v)
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nA, 1024), [&](const auto& r) {
-        Vec3 G[27];
-        for (std::size_t a = r.begin(); a != r.end(); ++a) {
-          const std::uint64_t key = L.keys[L.act[a]];
-          stencils(key_x(key), key_y(key), key_z(key), L.n, nullptr, G);
-          double sum = 0.0;
-          for (int k = 0; k < 27; ++k) {
-            const std::int32_t j = nbr[a * 27 + k];
-            if (j >= 0) sum += G[k].dot(W[j]);
-          }
-          L.b[L.act[a]] += sum;
-        }
-      });
+    add_coarse_divergence(L, nbr, W);
     if (!L.own.empty())
       for (std::size_t i = 0; i < nE; ++i) W[i] += L.own[i];
     L.own = {};
     Vc = std::move(W);
-    // Laplacian stencils: constant away from the cube's faces.
-    double Lin[27];
-    stencils(1, 1, 1, std::max(L.n, 2), Lin, nullptr);
-    auto stencil_of = [&](std::size_t a, double* out) -> const double* {
-      const std::uint64_t key = L.keys[L.act[a]];
-      const int x = key_x(key), y = key_y(key), z = key_z(key);
-      if (x > 0 && y > 0 && z > 0 && x < L.n && y < L.n && z < L.n) return Lin;
-      stencils(x, y, z, L.n, out, nullptr);
-      return out;
-    };
-    const double omega = opt_.screening * std::ldexp(1.0, static_cast<int>(d));
-    // Screening weight of sample p at this depth: alpha 2^min(d, s_p) w_p a_p.
-    auto screen_weight = [&](std::uint32_t p, std::size_t dd) {
-      return opt_.screening * std::ldexp(1.0, std::min(static_cast<int>(dd), static_cast<int>(s_.depth[p]))) * s_.w[p] *
-             s_.area[p];
-    };
-    // Screening per cell: S restricted to a cell is the 8x8 matrix sum_p omega w_p a_p W(p) W(p)^T;
-    // precomputed when cells hold several samples (cheaper than visiting every sample each time).
-    const std::size_t ncells = L.cell_begin.size() - 1;
-    const bool use_mat = omega > 0.0 && L.samples.size() >= 2 * ncells;
-    std::vector<double> cellmat;
-    if (use_mat) {
-      cellmat.assign(ncells * 64, 0.0);
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ncells, 256), [&](const auto& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-          double* M = &cellmat[c * 64];
-          for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
-            const std::uint32_t p = L.samples[j];
-            double w[8];
-            weights(L, s_.u[p], w);
-            const double f = screen_weight(p, d);
-            for (int q = 0; q < 8; ++q)
-              for (int k = 0; k < 8; ++k) M[q * 8 + k] += f * w[q] * w[k];
-          }
-        }
-      });
-    }
-    // y = (L + S) x on the active nodes (x on E, zero on the halo).
-    auto apply = [&](const std::vector<double>& x, std::vector<double>& y) {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nA, 1024), [&](const auto& r) {
-        double buf[27];
-        for (std::size_t a = r.begin(); a != r.end(); ++a) {
-          const double* st = stencil_of(a, buf);
-          const std::int32_t* nb = &nbr[a * 27];
-          double s = 0.0;
-          for (int k = 0; k < 27; ++k)
-            if (nb[k] >= 0) s += st[k] * x[nb[k]];
-          y[L.act[a]] = s;
-        }
-      });
-      if (omega > 0.0 && use_mat)
-        for_cells_coloured(L, [&](std::uint32_t c) {
-          const std::int32_t* idx = &L.corners[c * 8];
-          const double* M = &cellmat[std::size_t(c) * 64];
-          double xs[8];
-          for (int q = 0; q < 8; ++q) xs[q] = x[idx[q]];
-          for (int q = 0; q < 8; ++q) {
-            double v = 0.0;
-            for (int k = 0; k < 8; ++k) v += M[q * 8 + k] * xs[k];
-            y[idx[q]] += v;
-          }
-        });
-      else if (omega > 0.0)
-        for_cells_coloured(L, [&](std::uint32_t c) {
-          const std::int32_t* idx = &L.corners[c * 8];
-          for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
-            const std::uint32_t p = L.samples[j];
-            double w[8];
-            weights(L, s_.u[p], w);
-            double v = 0.0;
-            for (int q = 0; q < 8; ++q) v += w[q] * x[idx[q]];
-            const double f = screen_weight(p, d) * v;
-            for (int q = 0; q < 8; ++q) y[idx[q]] += f * w[q];
-          }
-        });
-    };
-    // Right-hand side: b - (L + S) P.
+    const LevelSystem A(L, nbr, s_, opt_.screening, d);
+    // Right-hand side: b - (L + S) P; the diagonal for the preconditioner.
     std::vector<double> r(nE, 0.0), diag(nE, 0.0);
-    apply(P, r);
+    A.apply(P, r);
     tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
       const std::size_t i = L.act[a];
       r[i] = L.b[i] - r[i];
       double buf[27];
-      diag[i] = stencil_of(a, buf)[13];
+      diag[i] = A.stencil_of(a, buf)[13];
     });
     L.b = {};
-    if (omega > 0.0)
-      for_cells_coloured(L, [&](std::uint32_t c) {
-        const std::int32_t* idx = &L.corners[c * 8];
-        for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
-          const std::uint32_t p = L.samples[j];
-          double w[8];
-          weights(L, s_.u[p], w);
-          const double f = screen_weight(p, d);
-          for (int q = 0; q < 8; ++q) diag[idx[q]] += f * w[q] * w[q];
-        }
-      });
+    A.add_screening_diagonal(diag);
     diag_.seconds_system += sw.seconds();
     sw.reset();
-    // Jacobi-preconditioned conjugate gradients on the active nodes.
-    std::vector<double> x(nE, 0.0), z(nE, 0.0), p(nE, 0.0), Ap(nE, 0.0);
-    auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {
-      return det_sum(nA, [&](std::size_t k) { return a[L.act[k]] * b[L.act[k]]; });
-    };
-    const double r0 = std::sqrt(dot(r, r));
-    ld.initial_residual = r0;
+    std::vector<double> x(nE, 0.0);
+    double rn = std::sqrt(det_sum(nA, [&](std::size_t k) { return r[L.act[k]] * r[L.act[k]]; }));
+    ld.initial_residual = rn;
     const bool coarse = static_cast<int>(d) <= full;
     const int max_it = coarse ? opt_.coarse_max_iterations : opt_.fine_iterations;
-    const double target = coarse ? opt_.coarse_tolerance * r0 : 0.0;
-    tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
-      const std::size_t i = L.act[a];
-      z[i] = r[i] / diag[i];
-      p[i] = z[i];
-    });
-    double rz = dot(r, z), rn = r0;
-    int it = 0;
-    while (it < max_it && rn > target && rn > 0.0) {
-      apply(p, Ap);
-      const double pAp = dot(p, Ap);
-      if (!(pAp > 0.0)) break;
-      const double alpha = rz / pAp;
-      tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
-        const std::size_t i = L.act[a];
-        x[i] += alpha * p[i];
-        r[i] -= alpha * Ap[i];
-        z[i] = r[i] / diag[i];
-      });
-      ++it;
-      rn = std::sqrt(dot(r, r));
-      const double rz_new = dot(r, z);
-      const double beta = rz_new / rz;
-      rz = rz_new;
-      tbb::parallel_for(std::size_t{0}, nA, [&](std::size_t a) {
-        const std::size_t i = L.act[a];
-        p[i] = z[i] + beta * p[i];
-      });
-    }
-    ld.iterations = it;
+    const double target = coarse ? opt_.coarse_tolerance * rn : 0.0;
+    ld.iterations = pcg(A, diag, r, x, max_it, target, rn);
     ld.final_residual = rn;
     FieldLevel& F = field.levels[d];
     F.depth = static_cast<int>(d);

@@ -9,6 +9,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <set>
 
 #include "autoscan/core/error.hpp"
@@ -401,12 +402,11 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
   return fit;
 }
 
-MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
-                                 std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
-                                 const MultiwayOptions& o, ProgressCallback progress,
-                                 std::vector<std::shared_ptr<const PreparedScan>>* cache) {
-  Stopwatch clock;
-  o.validate();
+namespace {
+
+void check_inputs(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
+                  std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
+                  const std::vector<std::shared_ptr<const PreparedScan>>* cache) {
   const std::size_t n = scans.size();
   AUTOSCAN_REQUIRE(!cache || cache->size() == n, "multiway: {} cached preparations for {} scans",
                    cache ? cache->size() : 0, n);
@@ -420,17 +420,10 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     if (!initial.empty())
       AUTOSCAN_REQUIRE(initial[i].matrix().allFinite(), "multiway: initial correction of scan {} is not finite", i);
   }
-  Progress prog(std::move(progress), "multiway registration");
-  MultiwayResult res;
-  res.corrections.assign(n, Eigen::Isometry3d::Identity());
-  if (!initial.empty()) std::copy(initial.begin(), initial.end(), res.corrections.begin());
-  res.scans.resize(n);
-  std::vector<char> free(n, 1);
-  if (!free_in.empty()) std::copy(free_in.begin(), free_in.end(), free.begin());
-  for (std::size_t i = 0; i < n; ++i)
-    if (scans[i].empty()) free[i] = 0;
+}
 
-  // Centre of the work frame: the mean of the scans' centroids.
+// Centre of the work frame: the mean of the non-empty scans' centroids (none: nullopt).
+std::optional<Vec3> work_centre(std::span<const PointCloud> scans) {
   Vec3 c = Vec3::Zero();
   std::size_t nc = 0;
   for (const auto& s : scans)
@@ -440,253 +433,353 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
       c += m / static_cast<double>(s.size());
       ++nc;
     }
-  if (nc == 0 || std::none_of(free.begin(), free.end(), [](char f) { return f != 0; })) {
-    res.seconds = clock.seconds();
-    return res;
-  }
-  c /= static_cast<double>(nc);
+  if (nc == 0) return std::nullopt;
+  return c / static_cast<double>(nc);
+}
 
-  // Boxes of every scan at its current correction (cheap) decide which scans are worth preparing.
-  std::vector<AABB> boxes(n);
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t k = 0; k < scans[i].size(); k += std::max<std::size_t>(1, scans[i].size() / 2000))
-      boxes[i].extend(res.corrections[i] * scans[i].positions[k] - c);
-  const double sigma_r = o.robot_rotation_sigma_deg * kDegToRad;
-  auto reach = [&](std::size_t i) {
-    const double range = (boxes[i].center() - (sensors[i] - c)).norm();
-    return o.overlap_distance > 0.0 ? o.overlap_distance : 3.0 * (o.robot_translation_sigma + sigma_r * range);
-  };
-  auto boxes_touch = [&](std::size_t i, std::size_t j) {
+using PairKey = std::pair<std::size_t, std::size_t>;
+
+// One register_multiway call, step by step: candidates and their preparation, pair selection (and
+// the cap), rounds of pairwise ICP + pose graph with pair and scan rejection, the result.
+class MultiwayRun {
+ public:
+  MultiwayRun(std::span<const PointCloud> scans, std::span<const Vec3> sensors, const MultiwayOptions& o, const Vec3& c,
+              std::vector<char> free, MultiwayResult& res)
+      : scans_(scans),
+        sensors_(sensors),
+        o_(o),
+        n_(scans.size()),
+        c_(c),
+        sigma_r_(o.robot_rotation_sigma_deg * kDegToRad),
+        free_(std::move(free)),
+        res_(res),
+        prep_(n_),
+        X_(n_),
+        flagged_(n_, 0),
+        flag_reason_(n_) {}
+
+  void prepare(std::vector<std::shared_ptr<const PreparedScan>>* cache);
+  void select_pairs();
+  void cap_pairs();
+  void report_scans();
+  bool has_pairs() const { return !pairs_.empty(); }
+  void round(int r);
+  void finish();
+
+ private:
+  double reach(std::size_t i) const {
+    const double range = (boxes_[i].center() - (sensors_[i] - c_)).norm();
+    return o_.overlap_distance > 0.0 ? o_.overlap_distance : 3.0 * (o_.robot_translation_sigma + sigma_r_ * range);
+  }
+  bool boxes_touch(std::size_t i, std::size_t j) const {
     const double pad = reach(i) + reach(j);
     for (int a = 0; a < 3; ++a)
-      if (boxes[i].min[a] - pad > boxes[j].max[a] || boxes[j].min[a] - pad > boxes[i].max[a]) return false;
+      if (boxes_[i].min[a] - pad > boxes_[j].max[a] || boxes_[j].min[a] - pad > boxes_[i].max[a]) return false;
     return true;
-  };
-  std::vector<char> candidate(n, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    if (free[i])
-      for (std::size_t j = 0; j < n; ++j)
-        if (!scans[j].empty() && (j == i || boxes_touch(i, j))) candidate[j] = 1;
-  std::vector<std::size_t> cand;
-  for (std::size_t i = 0; i < n; ++i)
-    if (candidate[i]) cand.push_back(i);
-  std::vector<Prepared> prep(n);
-  tbb::parallel_for(std::size_t{0}, cand.size(), [&](std::size_t k) {
-    const std::size_t i = cand[k];
-    std::shared_ptr<const PreparedScan> f = cache ? (*cache)[i] : nullptr;
-    if (!f) f = std::make_shared<const PreparedScan>(fit_scan(scans[i], sensors[i], o));
-    if (cache) (*cache)[i] = f;
-    prep[i] = prepare(f, sensors[i], c, o);
-  });
-  std::vector<Eigen::Isometry3d> X(n);
-  for (std::size_t i = 0; i < n; ++i) X[i] = to_centred(res.corrections[i], c);
-  auto pair_distance = [&](std::size_t i, std::size_t j) {
-    if (o.overlap_distance > 0.0) return o.overlap_distance;
-    const double sp = std::max(prep[i].spacing, prep[j].spacing);
-    return 3.0 * sp + 3.0 * (o.robot_translation_sigma + sigma_r * std::max(prep[i].range, prep[j].range));
-  };
+  }
+  double pair_distance(std::size_t i, std::size_t j) const {
+    if (o_.overlap_distance > 0.0) return o_.overlap_distance;
+    const double sp = std::max(prep_[i].spacing, prep_[j].spacing);
+    return 3.0 * sp + 3.0 * (o_.robot_translation_sigma + sigma_r_ * std::max(prep_[i].range, prep_[j].range));
+  }
+  std::vector<std::size_t> test_from(const std::vector<std::size_t>& from);
+  // Solves the graph over the active pairs, dropping disagreeing pairs and flagging scans until
+  // nothing changes (at most four passes); returns the solved poses and the typical pair residual.
+  std::vector<Eigen::Isometry3d> solve_with_rejection(std::vector<char>& active, double& typical_rms);
 
-  // Pair selection: free scans against every candidate; then (free_neighbors) the anchors they
-  // overlap are freed and tested against the candidates too.
-  std::set<std::pair<std::size_t, std::size_t>> pair_set;
-  std::map<std::pair<std::size_t, std::size_t>, double> overlap_of;
-  auto test_from = [&](const std::vector<std::size_t>& from) {
-    std::vector<std::pair<std::size_t, std::size_t>> tests;
-    for (std::size_t i : from)
-      for (std::size_t j : cand)
-        if (i != j && boxes_touch(i, j)) {
-          const std::pair<std::size_t, std::size_t> key = std::minmax(i, j);
-          if (!overlap_of.contains(key) && std::find(tests.begin(), tests.end(), key) == tests.end())
-            tests.push_back(key);
-        }
-    std::vector<double> share(tests.size(), 0.0);
-    tbb::parallel_for(std::size_t{0}, tests.size(), [&](std::size_t t) {
-      const auto [i, j] = tests[t];
-      const double d = pair_distance(i, j);
-      share[t] =
-          std::max(overlap_share(prep[i], X[i], prep[j], X[j], d), overlap_share(prep[j], X[j], prep[i], X[i], d));
-    });
-    res.pairs_tested += tests.size();
-    std::vector<std::size_t> touched;
-    for (std::size_t t = 0; t < tests.size(); ++t) {
-      overlap_of[tests[t]] = share[t];
-      if (share[t] >= o.min_overlap) {
-        pair_set.insert(tests[t]);
-        touched.push_back(tests[t].first);
-        touched.push_back(tests[t].second);
+  std::span<const PointCloud> scans_;
+  std::span<const Vec3> sensors_;
+  const MultiwayOptions& o_;
+  std::size_t n_;
+  Vec3 c_;
+  double sigma_r_;
+  std::vector<char> free_;
+  MultiwayResult& res_;
+  std::vector<AABB> boxes_;
+  std::vector<std::size_t> cand_;
+  std::vector<Prepared> prep_;
+  std::vector<Eigen::Isometry3d> X_;
+  std::set<PairKey> pair_set_;
+  std::map<PairKey, double> overlap_of_;
+  std::vector<PairKey> pairs_;
+  std::vector<PairWork> work_;
+  std::vector<double> pair_dist_;
+  std::vector<char> flagged_;
+  std::vector<std::string> flag_reason_;
+};
+
+void MultiwayRun::prepare(std::vector<std::shared_ptr<const PreparedScan>>* cache) {
+  // Boxes of every scan at its current correction (cheap) decide which scans are worth preparing.
+  boxes_.assign(n_, AABB{});
+  for (std::size_t i = 0; i < n_; ++i)
+    for (std::size_t k = 0; k < scans_[i].size(); k += std::max<std::size_t>(1, scans_[i].size() / 2000))
+      boxes_[i].extend(res_.corrections[i] * scans_[i].positions[k] - c_);
+  std::vector<char> candidate(n_, 0);
+  for (std::size_t i = 0; i < n_; ++i)
+    if (free_[i])
+      for (std::size_t j = 0; j < n_; ++j)
+        if (!scans_[j].empty() && (j == i || boxes_touch(i, j))) candidate[j] = 1;
+  for (std::size_t i = 0; i < n_; ++i)
+    if (candidate[i]) cand_.push_back(i);
+  tbb::parallel_for(std::size_t{0}, cand_.size(), [&](std::size_t k) {
+    const std::size_t i = cand_[k];
+    std::shared_ptr<const PreparedScan> f = cache ? (*cache)[i] : nullptr;
+    if (!f) f = std::make_shared<const PreparedScan>(fit_scan(scans_[i], sensors_[i], o_));
+    if (cache) (*cache)[i] = f;
+    prep_[i] = registration::prepare(f, sensors_[i], c_, o_);
+  });
+  for (std::size_t i = 0; i < n_; ++i) X_[i] = to_centred(res_.corrections[i], c_);
+}
+
+// Tests the pairs (i in `from`, j a candidate) not tested yet; keeps those overlapping enough and
+// returns the scans they touch.
+std::vector<std::size_t> MultiwayRun::test_from(const std::vector<std::size_t>& from) {
+  std::vector<PairKey> tests;
+  for (std::size_t i : from)
+    for (std::size_t j : cand_)
+      if (i != j && boxes_touch(i, j)) {
+        const PairKey key = std::minmax(i, j);
+        if (!overlap_of_.contains(key) && std::find(tests.begin(), tests.end(), key) == tests.end())
+          tests.push_back(key);
       }
+  std::vector<double> share(tests.size(), 0.0);
+  tbb::parallel_for(std::size_t{0}, tests.size(), [&](std::size_t t) {
+    const auto [i, j] = tests[t];
+    const double d = pair_distance(i, j);
+    share[t] = std::max(overlap_share(prep_[i], X_[i], prep_[j], X_[j], d),
+                        overlap_share(prep_[j], X_[j], prep_[i], X_[i], d));
+  });
+  res_.pairs_tested += tests.size();
+  std::vector<std::size_t> touched;
+  for (std::size_t t = 0; t < tests.size(); ++t) {
+    overlap_of_[tests[t]] = share[t];
+    if (share[t] >= o_.min_overlap) {
+      pair_set_.insert(tests[t]);
+      touched.push_back(tests[t].first);
+      touched.push_back(tests[t].second);
     }
-    return touched;
-  };
+  }
+  return touched;
+}
+
+// Pair selection: free scans against every candidate; then (free_neighbors) the anchors they
+// overlap are freed and tested against the candidates too.
+void MultiwayRun::select_pairs() {
   std::vector<std::size_t> free_list;
-  for (std::size_t i = 0; i < n; ++i)
-    if (free[i]) free_list.push_back(i);
+  for (std::size_t i = 0; i < n_; ++i)
+    if (free_[i]) free_list.push_back(i);
   const auto touched = test_from(free_list);
-  if (o.free_neighbors) {
+  if (o_.free_neighbors) {
     std::vector<std::size_t> newly;
     for (std::size_t j : touched)
-      if (!free[j]) {
-        free[j] = 1;
+      if (!free_[j]) {
+        free_[j] = 1;
         newly.push_back(j);
       }
     std::sort(newly.begin(), newly.end());
     newly.erase(std::unique(newly.begin(), newly.end()), newly.end());
     if (!newly.empty()) test_from(newly);
   }
-  std::vector<std::pair<std::size_t, std::size_t>> pairs(pair_set.begin(), pair_set.end());
+  pairs_.assign(pair_set_.begin(), pair_set_.end());
   // Pairs between two anchors constrain nothing that moves.
-  std::erase_if(pairs, [&](const auto& p) { return !free[p.first] && !free[p.second]; });
-  if (o.max_pairs_per_scan > 0) {
-    // Each free scan keeps its partners of largest overlap (ties: the lower index); a pair stays when
-    // one of its free scans keeps it.
-    const auto k = static_cast<std::size_t>(o.max_pairs_per_scan);
-    std::vector<std::vector<std::size_t>> of(n);  // indices into pairs
-    for (std::size_t p = 0; p < pairs.size(); ++p) {
-      if (free[pairs[p].first]) of[pairs[p].first].push_back(p);
-      if (free[pairs[p].second]) of[pairs[p].second].push_back(p);
-    }
-    std::vector<char> keep(pairs.size(), 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      auto& list = of[i];
-      std::stable_sort(list.begin(), list.end(),
-                       [&](std::size_t a, std::size_t b) { return overlap_of.at(pairs[a]) > overlap_of.at(pairs[b]); });
-      for (std::size_t t = 0; t < list.size() && t < k; ++t) keep[list[t]] = 1;
-    }
-    std::size_t w = 0;
-    for (std::size_t p = 0; p < pairs.size(); ++p)
-      if (keep[p]) pairs[w++] = pairs[p];
-    res.pairs_capped = pairs.size() - w;
-    pairs.resize(w);
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    res.scans[i].free = free[i] != 0;
-    res.scans[i].spacing = prep[i].spacing;
-    res.scans[i].points_used = prep[i].target.size();
-    res.scans[i].neighbors = prep[i].fit ? prep[i].fit->neighbors : 0;
-    res.scans[i].noise = prep[i].fit ? prep[i].fit->noise : 0.0;
-  }
-  if (!pairs.empty()) res.overlap_distance = pair_distance(pairs.front().first, pairs.front().second);
-  res.incidence_gain = o.incidence_gain;
+  std::erase_if(pairs_, [&](const auto& p) { return !free_[p.first] && !free_[p.second]; });
+}
 
-  std::vector<PairWork> work(pairs.size());
-  std::vector<double> pair_dist(pairs.size());
-  for (std::size_t p = 0; p < pairs.size(); ++p) pair_dist[p] = pair_distance(pairs[p].first, pairs[p].second);
-  std::vector<char> flagged(n, 0);
-  std::vector<std::string> flag_reason(n);
-
-  for (int round = 0; round < o.rounds && !pairs.empty(); ++round) {
-    Stopwatch pclock;
-    tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
-      const auto [i, j] = pairs[p];
-      work[p] = PairWork{};
-      work[p].report.i = static_cast<int>(i);
-      work[p].report.j = static_cast<int>(j);
-      work[p].report.overlap = overlap_of.at(pairs[p]);
-      register_pair(prep[i], X[i], prep[j], X[j], pair_dist[p], o, work[p]);
+// Each free scan keeps its partners of largest overlap (ties: the lower index); a pair stays when
+// one of its free scans keeps it (max_pairs_per_scan; 0 keeps all).
+void MultiwayRun::cap_pairs() {
+  if (o_.max_pairs_per_scan <= 0) return;
+  const auto k = static_cast<std::size_t>(o_.max_pairs_per_scan);
+  std::vector<std::vector<std::size_t>> of(n_);  // indices into pairs_
+  for (std::size_t p = 0; p < pairs_.size(); ++p) {
+    if (free_[pairs_[p].first]) of[pairs_[p].first].push_back(p);
+    if (free_[pairs_[p].second]) of[pairs_[p].second].push_back(p);
+  }
+  std::vector<char> keep(pairs_.size(), 0);
+  for (std::size_t i = 0; i < n_; ++i) {
+    auto& list = of[i];
+    std::stable_sort(list.begin(), list.end(), [&](std::size_t a, std::size_t b) {
+      return overlap_of_.at(pairs_[a]) > overlap_of_.at(pairs_[b]);
     });
-    res.seconds_pairs += pclock.seconds();
-    Stopwatch gclock;
-    std::vector<char> active(pairs.size(), 0);
-    for (std::size_t p = 0; p < pairs.size(); ++p)
-      active[p] = work[p].ok && !flagged[pairs[p].first] && !flagged[pairs[p].second];
-    std::vector<Eigen::Isometry3d> solved = X;
-    double typical_rms = 0.0;
-    for (int pass = 0; pass < 4; ++pass) {
-      std::vector<PoseGraphEdge> edges;
-      std::vector<PoseGraphPrior> priors;
-      std::vector<char> fixed(n, 1);
-      for (std::size_t p = 0; p < pairs.size(); ++p)
-        if (active[p]) {
-          edges.push_back({static_cast<int>(pairs[p].first), static_cast<int>(pairs[p].second), work[p].measurement,
-                           work[p].information});
-          for (std::size_t v : {pairs[p].first, pairs[p].second})
-            if (free[v] && !flagged[v]) fixed[v] = 0;
-        }
-      for (std::size_t i = 0; i < n; ++i)
-        if (!fixed[i]) priors.push_back({static_cast<int>(i), prep[i].sensor, o.robot_translation_sigma, sigma_r});
-      PoseGraphOptions go;
-      go.robust_scale = o.robust_scale;
-      const PoseGraphResult g = solve_pose_graph(X, fixed, edges, priors, go);
-      solved = g.poses;
-      // Drop the pairs that disagree with the solution, then the scans beyond the robot's accuracy.
-      bool changed = false;
-      // The typical residual of a pair: the median over the overlapping pairs.
-      std::vector<double> rms;
-      for (std::size_t p = 0; p < pairs.size(); ++p)
-        if (work[p].ok) rms.push_back(work[p].report.rms_after);
-      std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2), rms.end());
-      const double typical = rms.empty() ? 0.0 : rms[rms.size() / 2];
-      typical_rms = typical;
-      for (std::size_t p = 0; p < pairs.size(); ++p) {
-        if (!work[p].ok) continue;
-        work[p].report.disagreement = disagreement(work[p], solved[pairs[p].first], solved[pairs[p].second]);
-        const double limit = o.max_disagreement * std::max(typical, 0.25 * std::max(prep[pairs[p].first].spacing,
-                                                                                    prep[pairs[p].second].spacing));
-        if (active[p] && work[p].report.disagreement > limit) {
-          active[p] = 0;
-          work[p].report.dropped = "disagrees";
-          changed = true;
-        }
-      }
-      for (std::size_t k = 0; k < priors.size(); ++k) {
-        const auto i = static_cast<std::size_t>(priors[k].node);
-        res.scans[i].mahalanobis = std::sqrt(g.prior_chi2[k]);
-        if (res.scans[i].mahalanobis > o.outlier_sigma && !flagged[i]) {
-          flagged[i] = 1;
-          flag_reason[i] = fmt::format("correction {:.1f} sigma beyond the robot's accuracy", res.scans[i].mahalanobis);
-          changed = true;
-        }
-      }
-      for (std::size_t p = 0; p < pairs.size(); ++p)
-        if (active[p] && (flagged[pairs[p].first] || flagged[pairs[p].second])) {
-          active[p] = 0;
-          work[p].report.dropped = "flagged scan";
-        }
-      if (!changed) break;
-    }
-    for (std::size_t i = 0; i < n; ++i)
-      if (free[i] && !flagged[i]) X[i] = solved[i];
-    for (std::size_t p = 0; p < pairs.size(); ++p) {
-      work[p].report.used = active[p] != 0;
-      if (active[p]) work[p].report.dropped.clear();
-      // The next round searches closer (every pair, also those that failed from this round's
-      // poses): four times the typical residual or three spacings, whichever is larger.
-      pair_dist[p] = std::min(pair_dist[p], std::max(4.0 * typical_rms, 3.0 * std::max(prep[pairs[p].first].spacing,
-                                                                                       prep[pairs[p].second].spacing)));
-    }
-    res.seconds_graph += gclock.seconds();
-    res.rounds = round + 1;
-    prog.report(static_cast<double>(round + 1) / o.rounds);
+    for (std::size_t t = 0; t < list.size() && t < k; ++t) keep[list[t]] = 1;
   }
+  std::size_t w = 0;
+  for (std::size_t p = 0; p < pairs_.size(); ++p)
+    if (keep[p]) pairs_[w++] = pairs_[p];
+  res_.pairs_capped = pairs_.size() - w;
+  pairs_.resize(w);
+}
 
+void MultiwayRun::report_scans() {
+  for (std::size_t i = 0; i < n_; ++i) {
+    res_.scans[i].free = free_[i] != 0;
+    res_.scans[i].spacing = prep_[i].spacing;
+    res_.scans[i].points_used = prep_[i].target.size();
+    res_.scans[i].neighbors = prep_[i].fit ? prep_[i].fit->neighbors : 0;
+    res_.scans[i].noise = prep_[i].fit ? prep_[i].fit->noise : 0.0;
+  }
+  if (!pairs_.empty()) res_.overlap_distance = pair_distance(pairs_.front().first, pairs_.front().second);
+  res_.incidence_gain = o_.incidence_gain;
+  work_.assign(pairs_.size(), PairWork{});
+  pair_dist_.resize(pairs_.size());
+  for (std::size_t p = 0; p < pairs_.size(); ++p) pair_dist_[p] = pair_distance(pairs_[p].first, pairs_[p].second);
+}
+
+std::vector<Eigen::Isometry3d> MultiwayRun::solve_with_rejection(std::vector<char>& active, double& typical_rms) {
+  std::vector<Eigen::Isometry3d> solved = X_;
+  for (int pass = 0; pass < 4; ++pass) {
+    std::vector<PoseGraphEdge> edges;
+    std::vector<PoseGraphPrior> priors;
+    std::vector<char> fixed(n_, 1);
+    for (std::size_t p = 0; p < pairs_.size(); ++p)
+      if (active[p]) {
+        edges.push_back({static_cast<int>(pairs_[p].first), static_cast<int>(pairs_[p].second), work_[p].measurement,
+                         work_[p].information});
+        for (std::size_t v : {pairs_[p].first, pairs_[p].second})
+          if (free_[v] && !flagged_[v]) fixed[v] = 0;
+      }
+    for (std::size_t i = 0; i < n_; ++i)
+      if (!fixed[i]) priors.push_back({static_cast<int>(i), prep_[i].sensor, o_.robot_translation_sigma, sigma_r_});
+    PoseGraphOptions go;
+    go.robust_scale = o_.robust_scale;
+    const PoseGraphResult g = solve_pose_graph(X_, fixed, edges, priors, go);
+    solved = g.poses;
+    // Drop the pairs that disagree with the solution, then the scans beyond the robot's accuracy.
+    bool changed = false;
+    // The typical residual of a pair: the median over the overlapping pairs.
+    std::vector<double> rms;
+    for (std::size_t p = 0; p < pairs_.size(); ++p)
+      if (work_[p].ok) rms.push_back(work_[p].report.rms_after);
+    std::nth_element(rms.begin(), rms.begin() + static_cast<std::ptrdiff_t>(rms.size() / 2), rms.end());
+    const double typical = rms.empty() ? 0.0 : rms[rms.size() / 2];
+    typical_rms = typical;
+    for (std::size_t p = 0; p < pairs_.size(); ++p) {
+      if (!work_[p].ok) continue;
+      work_[p].report.disagreement = disagreement(work_[p], solved[pairs_[p].first], solved[pairs_[p].second]);
+      const double limit = o_.max_disagreement * std::max(typical, 0.25 * std::max(prep_[pairs_[p].first].spacing,
+                                                                                   prep_[pairs_[p].second].spacing));
+      if (active[p] && work_[p].report.disagreement > limit) {
+        active[p] = 0;
+        work_[p].report.dropped = "disagrees";
+        changed = true;
+      }
+    }
+    for (std::size_t k = 0; k < priors.size(); ++k) {
+      const auto i = static_cast<std::size_t>(priors[k].node);
+      res_.scans[i].mahalanobis = std::sqrt(g.prior_chi2[k]);
+      if (res_.scans[i].mahalanobis > o_.outlier_sigma && !flagged_[i]) {
+        flagged_[i] = 1;
+        flag_reason_[i] = fmt::format("correction {:.1f} sigma beyond the robot's accuracy", res_.scans[i].mahalanobis);
+        changed = true;
+      }
+    }
+    for (std::size_t p = 0; p < pairs_.size(); ++p)
+      if (active[p] && (flagged_[pairs_[p].first] || flagged_[pairs_[p].second])) {
+        active[p] = 0;
+        work_[p].report.dropped = "flagged scan";
+      }
+    if (!changed) break;
+  }
+  return solved;
+}
+
+void MultiwayRun::round(int r) {
+  Stopwatch pclock;
+  tbb::parallel_for(std::size_t{0}, pairs_.size(), [&](std::size_t p) {
+    const auto [i, j] = pairs_[p];
+    work_[p] = PairWork{};
+    work_[p].report.i = static_cast<int>(i);
+    work_[p].report.j = static_cast<int>(j);
+    work_[p].report.overlap = overlap_of_.at(pairs_[p]);
+    register_pair(prep_[i], X_[i], prep_[j], X_[j], pair_dist_[p], o_, work_[p]);
+  });
+  res_.seconds_pairs += pclock.seconds();
+  Stopwatch gclock;
+  std::vector<char> active(pairs_.size(), 0);
+  for (std::size_t p = 0; p < pairs_.size(); ++p)
+    active[p] = work_[p].ok && !flagged_[pairs_[p].first] && !flagged_[pairs_[p].second];
+  double typical_rms = 0.0;
+  const std::vector<Eigen::Isometry3d> solved = solve_with_rejection(active, typical_rms);
+  for (std::size_t i = 0; i < n_; ++i)
+    if (free_[i] && !flagged_[i]) X_[i] = solved[i];
+  for (std::size_t p = 0; p < pairs_.size(); ++p) {
+    work_[p].report.used = active[p] != 0;
+    if (active[p]) work_[p].report.dropped.clear();
+    // The next round searches closer (every pair, also those that failed from this round's
+    // poses): four times the typical residual or three spacings, whichever is larger.
+    pair_dist_[p] = std::min(
+        pair_dist_[p],
+        std::max(4.0 * typical_rms, 3.0 * std::max(prep_[pairs_[p].first].spacing, prep_[pairs_[p].second].spacing)));
+  }
+  res_.seconds_graph += gclock.seconds();
+  res_.rounds = r + 1;
+}
+
+void MultiwayRun::finish() {
   // A free scan that overlaps others but agrees with none of them is flagged too.
-  std::vector<int> candidate_pairs(n, 0);
-  for (const auto& w : work) {
+  std::vector<int> candidate_pairs(n_, 0);
+  for (const auto& w : work_) {
     if (w.ok) {  // overlapping at the optimum (whether or not it agreed with the others)
       ++candidate_pairs[static_cast<std::size_t>(w.report.i)];
       ++candidate_pairs[static_cast<std::size_t>(w.report.j)];
     }
     if (w.report.used) {
-      ++res.scans[static_cast<std::size_t>(w.report.i)].pairs_used;
-      ++res.scans[static_cast<std::size_t>(w.report.j)].pairs_used;
+      ++res_.scans[static_cast<std::size_t>(w.report.i)].pairs_used;
+      ++res_.scans[static_cast<std::size_t>(w.report.j)].pairs_used;
     }
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (free[i] && !flagged[i] && candidate_pairs[i] > 0 && res.scans[i].pairs_used == 0) {
-      flagged[i] = 1;
-      flag_reason[i] = "overlaps other scans but agrees with none";
+  for (std::size_t i = 0; i < n_; ++i) {
+    if (free_[i] && !flagged_[i] && candidate_pairs[i] > 0 && res_.scans[i].pairs_used == 0) {
+      flagged_[i] = 1;
+      flag_reason_[i] = "overlaps other scans but agrees with none";
     }
-    res.scans[i].flagged = flagged[i] != 0;
-    res.scans[i].flag_reason = flag_reason[i];
-    if (free[i] && !flagged[i]) res.corrections[i] = from_centred(X[i], c);
-    const Eigen::Isometry3d& C = res.corrections[i];
-    res.scans[i].correction_translation = C.translation().norm();
-    res.scans[i].correction_rotation_deg = rotation_angle_deg(C);
+    res_.scans[i].flagged = flagged_[i] != 0;
+    res_.scans[i].flag_reason = flag_reason_[i];
+    if (free_[i] && !flagged_[i]) res_.corrections[i] = from_centred(X_[i], c_);
+    const Eigen::Isometry3d& C = res_.corrections[i];
+    res_.scans[i].correction_translation = C.translation().norm();
+    res_.scans[i].correction_rotation_deg = rotation_angle_deg(C);
   }
-  for (auto& w : work) {
-    w.report.measurement = from_centred(w.measurement, c);
-    res.pairs.push_back(w.report);
+  for (auto& w : work_) {
+    w.report.measurement = from_centred(w.measurement, c_);
+    res_.pairs.push_back(w.report);
   }
+}
+
+}  // namespace
+
+MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
+                                 std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
+                                 const MultiwayOptions& o, ProgressCallback progress,
+                                 std::vector<std::shared_ptr<const PreparedScan>>* cache) {
+  Stopwatch clock;
+  o.validate();
+  check_inputs(scans, sensors, initial, free_in, cache);
+  const std::size_t n = scans.size();
+  Progress prog(std::move(progress), "multiway registration");
+  MultiwayResult res;
+  res.corrections.assign(n, Eigen::Isometry3d::Identity());
+  if (!initial.empty()) std::copy(initial.begin(), initial.end(), res.corrections.begin());
+  res.scans.resize(n);
+  std::vector<char> free(n, 1);
+  if (!free_in.empty()) std::copy(free_in.begin(), free_in.end(), free.begin());
+  for (std::size_t i = 0; i < n; ++i)
+    if (scans[i].empty()) free[i] = 0;
+  const std::optional<Vec3> c = work_centre(scans);
+  if (!c || std::none_of(free.begin(), free.end(), [](char f) { return f != 0; })) {
+    res.seconds = clock.seconds();
+    return res;
+  }
+  MultiwayRun run(scans, sensors, o, *c, std::move(free), res);
+  run.prepare(cache);
+  run.select_pairs();
+  run.cap_pairs();
+  run.report_scans();
+  for (int round = 0; round < o.rounds && run.has_pairs(); ++round) {
+    run.round(round);
+    prog.report(static_cast<double>(round + 1) / o.rounds);
+  }
+  run.finish();
   res.seconds = clock.seconds();
   prog.report(1.0);
   return res;

@@ -93,7 +93,7 @@ struct ScanResult {
 };
 
 /// A scanner bound to one mesh: the ray scene (Embree's BVH) is built once in the constructor and
-/// reused by every scan (STYLE.md §6). scan() is const and thread-safe.
+/// reused by every scan (docs/conventions.md). scan() is const and thread-safe.
 class VirtualScanner {
  public:
   /// Throws InputError for an empty mesh, a mesh with bad indices or non-finite vertices, or an

@@ -1,5 +1,5 @@
 #pragma once
-// Normalisation to the benchmark frame (../shared/PRODUCT.md): bounding-box diagonal 1, box centred
+// Normalisation to the benchmark frame (docs/conventions.md, "The benchmark frame"): bounding-box diagonal 1, box centred
 // at the origin, Z up. Meshes are assumed to be Z-up already (no rotation is applied); the
 // normalisation is a similarity p' = scale * p + translation.
 #include "autoscan/core/mesh.hpp"

@@ -260,193 +260,237 @@ double mean_of(const std::vector<double>& v) {
   return n ? s / n : std::nan("");
 }
 
-}  // namespace
+using Series = std::vector<std::pair<std::string, std::vector<double>>>;
+using AggKey = std::tuple<std::string, double, std::string, int>;  // model, noise, planner, views
 
-json collect(const fs::path& dir, const fs::path& markdown_out) {
-  const BenchGrid g = load_grid(dir);
-  const auto jobs = expand_grid(g);
-  json rows = json::array();
-  std::ostringstream csv;
-  csv << "model,planner,noise,seed,views,views_taken,reached,coverage,coverage_scannable,fscore,precision,recall,"
-         "accuracy_mean,completeness_mean,mean_f\n";
-  // (model, noise, planner, views) -> values over seeds
-  std::map<std::tuple<std::string, double, std::string, int>, std::map<std::string, std::vector<double>>> agg;
-  std::map<std::pair<std::string, std::string>, std::vector<std::pair<std::string, eval::ErrorHistogram>>> hist;
-  int have = 0;
-  for (const auto& j : jobs) {
-    if (!finished(dir, j)) continue;
-    ++have;
-    const json r = json::parse(read_text_file(result_path(dir, j)));
-    const json& res = r["result"];
-    for (const auto& c : res.value("checkpoints", json::array())) {
-      auto num = [&](const char* k) { return c.contains(k) && c[k].is_number() ? c[k].get<double>() : std::nan(""); };
-      const int v = c.value("views", 0);
-      csv << fmt::format("{},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6f}\n", j.model,
-                         j.planner, j.noise, j.seed, v, c.value("views_taken", 0), c.value("reached", false) ? 1 : 0,
-                         num("coverage"), num("coverage_scannable"), num("fscore"), num("precision"), num("recall"),
-                         num("accuracy_mean"), num("completeness_mean"), num("mean_f"));
-      auto& a = agg[{j.model, j.noise, j.planner, v}];
-      for (const char* k : {"coverage", "coverage_scannable", "fscore", "accuracy_mean", "completeness_mean"})
-        a[k].push_back(num(k));
-      json row = c;
-      row.erase("histogram");
-      row["model"] = j.model;
-      row["planner"] = j.planner;
-      row["noise"] = j.noise;
-      row["seed"] = j.seed;
-      rows.push_back(row);
+// The finished runs of a bench directory gathered into tables, plots and the markdown summary.
+class Collector {
+ public:
+  Collector(const fs::path& dir, const fs::path& markdown_out)
+      : dir_(dir), g_(load_grid(dir)), jobs_(expand_grid(g_)), markdown_out_(markdown_out) {}
+
+  json run() {
+    gather();
+    write_text_atomic(dir_ / "results.csv", csv_.str());
+    write_text_atomic(dir_ / "results.json", json{{"grid", to_json(g_)}, {"rows", rows_}}.dump(1));
+    fs::create_directories(dir_ / "plots");
+    plot_rel_ = markdown_out_.empty() ? fs::path("plots") : fs::relative(dir_ / "plots", markdown_out_.parent_path());
+    write_header();
+    for (const auto& m : g_.models) {
+      for (double n : g_.noise) section(m, n);
+      noise_figure(m);
     }
+    write_text_atomic(dir_ / "results.md", md_.str());
+    if (!markdown_out_.empty()) write_text_atomic(markdown_out_, md_.str());
+    return {{"runs", jobs_.size()},
+            {"finished", have_},
+            {"rows", rows_.size()},
+            {"markdown", (dir_ / "results.md").string()}};
+  }
+
+ private:
+  double mean(const AggKey& key, const char* what) {
+    auto it = agg_.find(key);
+    return it == agg_.end() ? std::nan("") : mean_of(it->second[what]);
+  }
+  void gather();
+  void add_checkpoint(const BenchJob& j, const json& c);
+  void write_header();
+  void section(const std::string& m, double n);
+  void accuracy_table(const std::string& m, double n);
+  void iteration_figures(const std::string& m, double n, const std::string& ms, const std::string& base);
+  void noise_figure(const std::string& m);
+
+  fs::path dir_;
+  BenchGrid g_;
+  std::vector<BenchJob> jobs_;
+  fs::path markdown_out_;
+  fs::path plot_rel_;
+  json rows_ = json::array();
+  std::ostringstream csv_, md_;
+  std::map<AggKey, std::map<std::string, std::vector<double>>> agg_;  // values over seeds
+  std::map<std::pair<std::string, std::string>, std::vector<std::pair<std::string, eval::ErrorHistogram>>> hist_;
+  int have_ = 0;
+};
+
+void Collector::add_checkpoint(const BenchJob& j, const json& c) {
+  auto num = [&](const char* k) { return c.contains(k) && c[k].is_number() ? c[k].get<double>() : std::nan(""); };
+  const int v = c.value("views", 0);
+  csv_ << fmt::format("{},{},{},{},{},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6f}\n", j.model,
+                      j.planner, j.noise, j.seed, v, c.value("views_taken", 0), c.value("reached", false) ? 1 : 0,
+                      num("coverage"), num("coverage_scannable"), num("fscore"), num("precision"), num("recall"),
+                      num("accuracy_mean"), num("completeness_mean"), num("mean_f"));
+  auto& a = agg_[{j.model, j.noise, j.planner, v}];
+  for (const char* k : {"coverage", "coverage_scannable", "fscore", "accuracy_mean", "completeness_mean"})
+    a[k].push_back(num(k));
+  json row = c;
+  row.erase("histogram");
+  row["model"] = j.model;
+  row["planner"] = j.planner;
+  row["noise"] = j.noise;
+  row["seed"] = j.seed;
+  rows_.push_back(row);
+}
+
+void Collector::gather() {
+  csv_ << "model,planner,noise,seed,views,views_taken,reached,coverage,coverage_scannable,fscore,precision,recall,"
+          "accuracy_mean,completeness_mean,mean_f\n";
+  for (const auto& j : jobs_) {
+    if (!finished(dir_, j)) continue;
+    ++have_;
+    const json r = json::parse(read_text_file(result_path(dir_, j)));
+    const json& res = r["result"];
+    for (const auto& c : res.value("checkpoints", json::array())) add_checkpoint(j, c);
     // Figure 9: the final reconstruction's error histogram per planner.
     const json& t = res.value("truth", json());
-    if (t.is_object() && t.contains("histogram") && j.seed == g.seeds.front()) {
+    if (t.is_object() && t.contains("histogram") && j.seed == g_.seeds.front()) {
       eval::ErrorHistogram h;
       const auto& hj = t["histogram"];
       h.edges = hj.value("edges", std::vector<double>{});
       h.share = hj.value("share", std::vector<double>{});
       h.counts = hj.value("counts", std::vector<std::size_t>{});
       if (!h.edges.empty() && h.share.size() + 1 == h.edges.size())
-        hist[{fs::path(j.model).stem().string(), fmt::format("{}", j.noise)}].emplace_back(j.planner, h);
+        hist_[{fs::path(j.model).stem().string(), fmt::format("{}", j.noise)}].emplace_back(j.planner, h);
     }
   }
-  write_text_atomic(dir / "results.csv", csv.str());
-  write_text_atomic(dir / "results.json", json{{"grid", to_json(g)}, {"rows", rows}}.dump(1));
-  fs::create_directories(dir / "plots");
-
-  // Markdown: per model and noise, a table planner × view budget of F-score / coverage (mean over seeds).
-  std::ostringstream md;
-  md << "# Benchmark results\n\nGenerated by `autoscan bench --collect`. " << have << " of " << jobs.size()
-     << " runs finished. Grid: models " << fmt::format("{}", fmt::join(g.models, ", ")) << "; planners "
-     << fmt::format("{}", fmt::join(g.planners, ", ")) << "; view budgets "
-     << fmt::format("{}", fmt::join(g.views, ", ")) << "; noise " << fmt::format("{}", fmt::join(g.noise, ", "))
-     << "; seeds " << g.seeds.size() << "; Poisson depth " << g.depth
-     << ".\nEach cell: F-score of the Poisson mesh at τ = 0.005 of the diagonal / coverage of the truth by "
-     << "the scanned points / coverage of the scannable truth (the part a dense set of noise-free views captures, "
-     << "simulation/scannable.hpp), means over seeds. Every run goes to the largest view budget (the confidence stop "
-     << "rule is off in the benchmark); a budget a run did not reach (views refused) uses its final model.\n\n";
-  const fs::path plot_rel =
-      markdown_out.empty() ? fs::path("plots") : fs::relative(dir / "plots", markdown_out.parent_path());
-  std::vector<double> xs(g.views.begin(), g.views.end());
-  for (const auto& m : g.models) {
-    const std::string ms = fs::path(m).stem().string();
-    for (double n : g.noise) {
-      md << "## " << ms << ", noise " << n << "\n\n| planner |";
-      for (int v : g.views) md << " " << v << " views |";
-      md << "\n|---|";
-      for (std::size_t i = 0; i < g.views.size(); ++i) md << "---|";
-      md << "\n";
-      std::vector<std::pair<std::string, std::vector<double>>> fs_series, cov_series;
-      for (const auto& p : g.planners) {
-        md << "| " << p << " |";
-        std::vector<double> fv, cv;
-        for (int v : g.views) {
-          auto it = agg.find({m, n, p, v});
-          const double f = it == agg.end() ? std::nan("") : mean_of(it->second["fscore"]);
-          const double c = it == agg.end() ? std::nan("") : mean_of(it->second["coverage"]);
-          const double cs = it == agg.end() ? std::nan("") : mean_of(it->second["coverage_scannable"]);
-          fv.push_back(f);
-          cv.push_back(c);
-          md << (std::isfinite(f) ? fmt::format(" {:.3f} / {:.3f} / {:.3f} |", f, c, cs) : std::string(" – |"));
-        }
-        fs_series.emplace_back(p, fv);
-        cov_series.emplace_back(p, cv);
-        md << "\n";
-      }
-      // The F-score saturates on well-covered objects; the mean error of the Poisson mesh still ranks.
-      md << "\nMean distance of the Poisson mesh to the truth (accuracy, units of 1e-4 of the diagonal):\n\n| planner "
-            "|";
-      for (int v : g.views) md << " " << v << " views |";
-      md << "\n|---|";
-      for (std::size_t i = 0; i < g.views.size(); ++i) md << "---|";
-      md << "\n";
-      for (const auto& p : g.planners) {
-        md << "| " << p << " |";
-        for (int v : g.views) {
-          auto it = agg.find({m, n, p, v});
-          const double a = it == agg.end() ? std::nan("") : mean_of(it->second["accuracy_mean"]);
-          md << (std::isfinite(a) ? fmt::format(" {:.2f} |", 1e4 * a) : std::string(" – |"));
-        }
-        md << "\n";
-      }
-      md << "\n";
-      const std::string base = fmt::format("{}_n{}", ms, n);
-      write_text_atomic(dir / "plots" / (base + "_fscore.svg"),
-                        line_chart(ms + " (noise " + fmt::format("{}", n) + "): F-score", "next-best views", "F-score",
-                                   xs, fs_series));
-      write_text_atomic(dir / "plots" / (base + "_coverage.svg"),
-                        line_chart(ms + " (noise " + fmt::format("{}", n) + "): coverage", "next-best views",
-                                   "coverage", xs, cov_series));
-      md << "![F-score](" << (plot_rel / (base + "_fscore.svg")).string() << ") ![coverage]("
-         << (plot_rel / (base + "_coverage.svg")).string() << ")\n";
-      // Figure 8: global confidence and mean error of each iteration's model, per planner (first seed).
-      {
-        std::vector<std::pair<std::string, std::vector<double>>> conf, err;
-        std::size_t iters = 0;
-        for (const auto& p : g.planners) {
-          std::vector<double> cf, er;
-          for (const auto& j : jobs) {
-            if (j.model != m || j.noise != n || j.planner != p || j.seed != g.seeds.front()) continue;
-            const fs::path sp = dir / "runs" / j.name / "session.json";
-            std::error_code ec;
-            if (!finished(dir, j) || !fs::exists(sp, ec)) continue;
-            const json sj = json::parse(read_text_file(sp), nullptr, false);
-            if (sj.is_discarded()) continue;
-            for (const auto& it : sj.value("iterations", json::array())) {
-              cf.push_back(it.value("mean_f", std::nan("")));
-              const json t = it.value("truth", json());
-              er.push_back(t.is_object() ? t.value("accuracy_mean", std::nan("")) : std::nan(""));
-            }
-          }
-          iters = std::max(iters, cf.size());
-          conf.emplace_back(p, cf);
-          err.emplace_back(p, er);
-        }
-        if (iters > 0) {
-          std::vector<double> ix(iters);
-          for (std::size_t i = 0; i < iters; ++i) ix[i] = static_cast<double>(i);
-          write_text_atomic(dir / "plots" / (base + "_confidence.svg"),
-                            line_chart(ms + " (noise " + fmt::format("{}", n) + "): mean confidence per iteration",
-                                       "iteration", "mean f", ix, conf));
-          write_text_atomic(dir / "plots" / (base + "_error.svg"),
-                            line_chart(ms + " (noise " + fmt::format("{}", n) + "): mean error per iteration",
-                                       "iteration", "mean distance to truth", ix, err));
-          md << "![confidence per iteration](" << (plot_rel / (base + "_confidence.svg")).string()
-             << ") ![error per iteration](" << (plot_rel / (base + "_error.svg")).string() << ")\n";
-        }
-      }
-      auto h = hist.find({ms, fmt::format("{}", n)});
-      if (h != hist.end() && !h->second.empty()) {
-        try {
-          eval::write_histogram_svg(dir / "plots" / (base + "_histogram.svg"), h->second,
-                                    ms + ": error distribution of the final reconstructions (Figure 9)");
-          md << "![error histogram](" << (plot_rel / (base + "_histogram.svg")).string() << ")\n";
-        } catch (const InputError& e) {
-          log::warn("bench: histogram of {} skipped: {}", base, e.what());
-        }
-      }
-      md << "\n";
-    }
-    // Figure 16: accuracy at the largest budget against noise, per planner.
-    if (g.noise.size() > 1) {
-      std::vector<std::pair<std::string, std::vector<double>>> series;
-      const int vmax = *std::max_element(g.views.begin(), g.views.end());
-      for (const auto& p : g.planners) {
-        std::vector<double> ys;
-        for (double n : g.noise) {
-          auto it = agg.find({m, n, p, vmax});
-          ys.push_back(it == agg.end() ? std::nan("") : mean_of(it->second["accuracy_mean"]));
-        }
-        series.emplace_back(p, ys);
-      }
-      write_text_atomic(dir / "plots" / (ms + "_noise.svg"),
-                        line_chart(ms + ": mean error vs noise (" + std::to_string(vmax) + " views)", "noise magnitude",
-                                   "mean distance to truth", g.noise, series));
-      md << "![noise](" << (plot_rel / (ms + "_noise.svg")).string() << ")\n\n";
-    }
-  }
-  write_text_atomic(dir / "results.md", md.str());
-  if (!markdown_out.empty()) write_text_atomic(markdown_out, md.str());
-  return {
-      {"runs", jobs.size()}, {"finished", have}, {"rows", rows.size()}, {"markdown", (dir / "results.md").string()}};
 }
+
+void Collector::write_header() {
+  md_ << "# Benchmark results\n\nGenerated by `autoscan bench --collect`. " << have_ << " of " << jobs_.size()
+      << " runs finished. Grid: models " << fmt::format("{}", fmt::join(g_.models, ", ")) << "; planners "
+      << fmt::format("{}", fmt::join(g_.planners, ", ")) << "; view budgets "
+      << fmt::format("{}", fmt::join(g_.views, ", ")) << "; noise " << fmt::format("{}", fmt::join(g_.noise, ", "))
+      << "; seeds " << g_.seeds.size() << "; Poisson depth " << g_.depth
+      << ".\nEach cell: F-score of the Poisson mesh at τ = 0.005 of the diagonal / coverage of the truth by "
+      << "the scanned points / coverage of the scannable truth (the part a dense set of noise-free views captures, "
+      << "simulation/scannable.hpp), means over seeds. Every run goes to the largest view budget (the confidence stop "
+      << "rule is off in the benchmark); a budget a run did not reach (views refused) uses its final model.\n\n";
+}
+
+// Markdown: per model and noise, a table planner × view budget of F-score / coverage (mean over seeds),
+// the accuracy table and the plots.
+void Collector::section(const std::string& m, double n) {
+  const std::string ms = fs::path(m).stem().string();
+  md_ << "## " << ms << ", noise " << n << "\n\n| planner |";
+  for (int v : g_.views) md_ << " " << v << " views |";
+  md_ << "\n|---|";
+  for (std::size_t i = 0; i < g_.views.size(); ++i) md_ << "---|";
+  md_ << "\n";
+  Series fs_series, cov_series;
+  for (const auto& p : g_.planners) {
+    md_ << "| " << p << " |";
+    std::vector<double> fv, cv;
+    for (int v : g_.views) {
+      const double f = mean({m, n, p, v}, "fscore");
+      const double c = mean({m, n, p, v}, "coverage");
+      const double cs = mean({m, n, p, v}, "coverage_scannable");
+      fv.push_back(f);
+      cv.push_back(c);
+      md_ << (std::isfinite(f) ? fmt::format(" {:.3f} / {:.3f} / {:.3f} |", f, c, cs) : std::string(" – |"));
+    }
+    fs_series.emplace_back(p, fv);
+    cov_series.emplace_back(p, cv);
+    md_ << "\n";
+  }
+  accuracy_table(m, n);
+  const std::string base = fmt::format("{}_n{}", ms, n);
+  const std::vector<double> xs(g_.views.begin(), g_.views.end());
+  write_text_atomic(
+      dir_ / "plots" / (base + "_fscore.svg"),
+      line_chart(ms + " (noise " + fmt::format("{}", n) + "): F-score", "next-best views", "F-score", xs, fs_series));
+  write_text_atomic(dir_ / "plots" / (base + "_coverage.svg"),
+                    line_chart(ms + " (noise " + fmt::format("{}", n) + "): coverage", "next-best views", "coverage",
+                               xs, cov_series));
+  md_ << "![F-score](" << (plot_rel_ / (base + "_fscore.svg")).string() << ") ![coverage]("
+      << (plot_rel_ / (base + "_coverage.svg")).string() << ")\n";
+  iteration_figures(m, n, ms, base);
+  auto h = hist_.find({ms, fmt::format("{}", n)});
+  if (h != hist_.end() && !h->second.empty()) {
+    try {
+      eval::write_histogram_svg(dir_ / "plots" / (base + "_histogram.svg"), h->second,
+                                ms + ": error distribution of the final reconstructions (Figure 9)");
+      md_ << "![error histogram](" << (plot_rel_ / (base + "_histogram.svg")).string() << ")\n";
+    } catch (const InputError& e) {
+      log::warn("bench: histogram of {} skipped: {}", base, e.what());
+    }
+  }
+  md_ << "\n";
+}
+
+// The F-score saturates on well-covered objects; the mean error of the Poisson mesh still ranks.
+void Collector::accuracy_table(const std::string& m, double n) {
+  md_ << "\nMean distance of the Poisson mesh to the truth (accuracy, units of 1e-4 of the diagonal):\n\n| planner "
+         "|";
+  for (int v : g_.views) md_ << " " << v << " views |";
+  md_ << "\n|---|";
+  for (std::size_t i = 0; i < g_.views.size(); ++i) md_ << "---|";
+  md_ << "\n";
+  for (const auto& p : g_.planners) {
+    md_ << "| " << p << " |";
+    for (int v : g_.views) {
+      const double a = mean({m, n, p, v}, "accuracy_mean");
+      md_ << (std::isfinite(a) ? fmt::format(" {:.2f} |", 1e4 * a) : std::string(" – |"));
+    }
+    md_ << "\n";
+  }
+  md_ << "\n";
+}
+
+// Figure 8: global confidence and mean error of each iteration's model, per planner (first seed).
+void Collector::iteration_figures(const std::string& m, double n, const std::string& ms, const std::string& base) {
+  Series conf, err;
+  std::size_t iters = 0;
+  for (const auto& p : g_.planners) {
+    std::vector<double> cf, er;
+    for (const auto& j : jobs_) {
+      if (j.model != m || j.noise != n || j.planner != p || j.seed != g_.seeds.front()) continue;
+      const fs::path sp = dir_ / "runs" / j.name / "session.json";
+      std::error_code ec;
+      if (!finished(dir_, j) || !fs::exists(sp, ec)) continue;
+      const json sj = json::parse(read_text_file(sp), nullptr, false);
+      if (sj.is_discarded()) continue;
+      for (const auto& it : sj.value("iterations", json::array())) {
+        cf.push_back(it.value("mean_f", std::nan("")));
+        const json t = it.value("truth", json());
+        er.push_back(t.is_object() ? t.value("accuracy_mean", std::nan("")) : std::nan(""));
+      }
+    }
+    iters = std::max(iters, cf.size());
+    conf.emplace_back(p, cf);
+    err.emplace_back(p, er);
+  }
+  if (iters == 0) return;
+  std::vector<double> ix(iters);
+  for (std::size_t i = 0; i < iters; ++i) ix[i] = static_cast<double>(i);
+  write_text_atomic(dir_ / "plots" / (base + "_confidence.svg"),
+                    line_chart(ms + " (noise " + fmt::format("{}", n) + "): mean confidence per iteration", "iteration",
+                               "mean f", ix, conf));
+  write_text_atomic(dir_ / "plots" / (base + "_error.svg"),
+                    line_chart(ms + " (noise " + fmt::format("{}", n) + "): mean error per iteration", "iteration",
+                               "mean distance to truth", ix, err));
+  md_ << "![confidence per iteration](" << (plot_rel_ / (base + "_confidence.svg")).string()
+      << ") ![error per iteration](" << (plot_rel_ / (base + "_error.svg")).string() << ")\n";
+}
+
+// Figure 16: accuracy at the largest budget against noise, per planner.
+void Collector::noise_figure(const std::string& m) {
+  if (g_.noise.size() <= 1) return;
+  const std::string ms = fs::path(m).stem().string();
+  Series series;
+  const int vmax = *std::max_element(g_.views.begin(), g_.views.end());
+  for (const auto& p : g_.planners) {
+    std::vector<double> ys;
+    for (double n : g_.noise) ys.push_back(mean({m, n, p, vmax}, "accuracy_mean"));
+    series.emplace_back(p, ys);
+  }
+  write_text_atomic(dir_ / "plots" / (ms + "_noise.svg"),
+                    line_chart(ms + ": mean error vs noise (" + std::to_string(vmax) + " views)", "noise magnitude",
+                               "mean distance to truth", g_.noise, series));
+  md_ << "![noise](" << (plot_rel_ / (ms + "_noise.svg")).string() << ")\n\n";
+}
+
+}  // namespace
+
+json collect(const fs::path& dir, const fs::path& markdown_out) { return Collector(dir, markdown_out).run(); }
 
 }  // namespace autoscan::simulation
