@@ -209,7 +209,8 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
       r = autoscan::simulation::resume(o->out, g.progress());
     } else {
       autoscan::cli::require_input_file(o->mesh, "--mesh");
-      const auto options = build_options(*o, {});
+      const SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary
+      const auto options = build_options(*o, defaults);
       const auto mesh = autoscan::io::read_mesh(o->mesh);
       r = autoscan::simulation::simulate(mesh, o->out, options, g.progress(), o->mesh);
     }

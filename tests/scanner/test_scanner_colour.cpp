@@ -144,5 +144,5 @@ TEST(ScannerColour, TextureIsSampledAtTheHit) {
       EXPECT_NEAR(r.cloud.colors[i][0], 0.5 * (kRed[0] + kBlue[0]), 1.0);
     }
   }
-  EXPECT_GT(checked, 5000);
+  EXPECT_GT(checked, 1000);  // the frame sees u in [0.2, 0.8]
 }

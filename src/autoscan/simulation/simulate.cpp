@@ -599,7 +599,8 @@ RecordedSimulation recorded_simulation(const fs::path& out) {
   AUTOSCAN_REQUIRE(!sim.is_discarded() && sim.is_object() && sim.contains("options"), "{}: corrupt simulation file",
                    sim_path.string());
   RecordedSimulation r;
-  r.options = simulate_options_from_json(sim["options"], {}, sim_path.string());
+  const SimulateOptions defaults;  // a named base: GCC 12 warns (maybe-uninitialized) about a temporary
+  r.options = simulate_options_from_json(sim["options"], defaults, sim_path.string());
   if (sim.contains("source")) {
     AUTOSCAN_REQUIRE(sim["source"].is_string(), "{}: source: expected a string", sim_path.string());
     r.source = sim["source"].get<std::string>();
