@@ -1181,8 +1181,9 @@ void bind_simulation(py::module_& m) {
       [](const py::object& mesh, const py::object& out, const py::object& options) {
         const TriangleMesh t = to_mesh(mesh);
         const auto path = to_path(out);
-        const auto o =
-            simulation::simulate_options_from_json(options_json(options, "simulate options"), {}, "simulate options");
+        const simulation::SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary
+        const auto o = simulation::simulate_options_from_json(options_json(options, "simulate options"), defaults,
+                                                              "simulate options");
         o.validate();
         auto progress = progress_logger();
         return from_json(call([&] { return simulation::simulate(t, path, o, progress); }).to_json());

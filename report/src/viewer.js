@@ -121,7 +121,8 @@ export function start() {
 
   const groups = { cloud: new THREE.Group(), mesh: new THREE.Group(), views: new THREE.Group() };
   Object.values(groups).forEach((g) => scene.add(g));
-  const state = { iteration: iterations.length - 1, colorBy: 'f', meshColorChecksum: 0, points: 0 };
+  // A coloured model (docs/colour.md) is shown in its colours first; the select switches to f.
+  const state = { iteration: iterations.length - 1, colorBy: manifest.has_color ? 'color' : 'f', meshColorChecksum: 0, points: 0 };
 
   function resize() {
     const w = viewport.clientWidth || 800, h = viewport.clientHeight || 600;
@@ -161,9 +162,20 @@ export function start() {
   function meshColors(it) {
     const nv = it.mesh.vertices;
     const col = new Float32Array(nv * 3);
+    let sum = 0;
+    if (state.colorBy === 'color') {
+      // The scanned colours (0-1 RGB); grey where the iteration has none.
+      const rgb = it.mesh.color ? decodeBuffer(it.mesh.color, Float32Array) : null;
+      for (let i = 0; i < nv; ++i) {
+        const c = rgb ? [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]] : [0.6, 0.6, 0.6];
+        col.set(c, 3 * i);
+        sum += c[0] * 3 + c[1] * 5 + c[2] * 7;
+      }
+      state.meshColorChecksum = sum;
+      return col;
+    }
     const key = it.mesh.scalars[state.colorBy];
     const s = key ? decodeBuffer(key, Float32Array) : null;
-    let sum = 0;
     for (let i = 0; i < nv; ++i) {
       const c = colormap(s ? s[i] : 0.5);
       col.set(c, 3 * i);
@@ -240,6 +252,7 @@ export function start() {
   slider.value = String(state.iteration);
   slider.addEventListener('input', () => show(Number(slider.value)));
   const colorBy = document.getElementById('color-by');
+  colorBy.value = state.colorBy;
   colorBy.addEventListener('change', () => {
     state.colorBy = colorBy.value;
     const it = iterations[state.iteration];
@@ -295,6 +308,7 @@ export function start() {
     ready: true,
     state: () => ({ ...state, iterations: iterations.length }),
     setIteration: (k) => { slider.value = String(k); show(k); },
+    setColorBy: (v) => { colorBy.value = v; colorBy.dispatchEvent(new Event('change')); },
     render,
   };
 }

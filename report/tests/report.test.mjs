@@ -84,6 +84,58 @@ test('the colour switch changes the mesh colours', async () => {
   assert.deepEqual(consoleErrors, []);
 });
 
+// Shares of canvas pixels that are clearly red (r ≫ g, b) and clearly blue (b ≫ r, g).
+async function redBlueShares() {
+  return page.evaluate(() => {
+    window.autoscanReport.render();
+    const src = document.querySelector('#viewport canvas');
+    const c = document.createElement('canvas');
+    c.width = src.width; c.height = src.height;
+    const ctx = c.getContext('2d');
+    ctx.drawImage(src, 0, 0);
+    const d = ctx.getImageData(0, 0, c.width, c.height).data;
+    let red = 0, blue = 0;
+    for (let i = 0; i < d.length; i += 4) {
+      const [r, g, b] = [d[i], d[i + 1], d[i + 2]];
+      if (r > 80 && r > 2.5 * g && r > 2.5 * b) ++red;
+      if (b > 80 && b > 2.5 * r && b > 1.8 * g) ++blue;
+    }
+    return { red: red / (d.length / 4), blue: blue / (d.length / 4) };
+  });
+}
+
+test('the coloured model renders in its scanned colours and switches to confidence', async () => {
+  // The fixture's last iteration has a coloured model (red above z = 0, blue below): the report
+  // opens on it in its colours.
+  const last = (await page.evaluate(() => window.autoscanReport.state())).iterations - 1;
+  await page.evaluate((k) => window.autoscanReport.setIteration(k), last);
+  await page.evaluate(() => window.autoscanReport.setColorBy('color'));
+  assert.equal(await page.inputValue('#color-by'), 'color');
+  await page.evaluate(() => {
+    document.getElementById('show-cloud').checked = false;
+    const o = document.getElementById('mesh-opacity');
+    o.value = '1';  // opaque: the background does not wash the colours out
+    o.dispatchEvent(new Event('input'));
+  });
+  const coloured = await redBlueShares();
+  assert.ok(coloured.red > 0.02, `red share ${coloured.red}`);
+  assert.ok(coloured.blue > 0.02, `blue share ${coloured.blue}`);
+  const colourSum = await page.evaluate(() => window.autoscanReport.state().meshColorChecksum);
+  // Confidence (f = 0.5 + z, the cool-warm map): other colours.
+  await page.selectOption('#color-by', 'f');
+  const confSum = await page.evaluate(() => window.autoscanReport.state().meshColorChecksum);
+  assert.notEqual(colourSum, confSum);
+  await page.selectOption('#color-by', 'color');
+  assert.equal(await page.evaluate(() => window.autoscanReport.state().meshColorChecksum), colourSum);
+  await page.evaluate(() => {
+    document.getElementById('show-cloud').checked = true;
+    const o = document.getElementById('mesh-opacity');
+    o.value = '0.85';
+    o.dispatchEvent(new Event('input'));
+  });
+  assert.deepEqual(consoleErrors, []);
+});
+
 test('plots are drawn', async () => {
   const n = await page.evaluate(() => document.querySelectorAll('#plots svg').length);
   assert.ok(n >= 2, `expected at least 2 plots, got ${n}`);

@@ -8,6 +8,7 @@
 #include "autoscan/core/json_io.hpp"
 #include "autoscan/core/log.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/shapes/paint.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/simulate.hpp"
 #include "command.hpp"
@@ -17,7 +18,7 @@ namespace fs = std::filesystem;
 using autoscan::simulation::SimulateOptions;
 
 struct SimCli {
-  std::string mesh, out, config, planner, rig;
+  std::string mesh, out, config, planner, rig, paint;
   // Not given: the configuration's value (every given value is validated, none means "default").
   std::optional<int> max_views, max_iterations, depth;
   std::optional<double> noise;
@@ -37,6 +38,9 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
   sub->add_option("--rig", o.rig, "free, turntable_arm or view_sphere");
   sub->add_option("--config", o.config, "JSON file with options: {session, scanner, rig, blind, eval, checkpoints}");
   sub->add_option("--checkpoints", o.checkpoints, "View budgets at which to evaluate the model, e.g. 10,20,40");
+  sub->add_option("--paint", o.paint,
+                  "Paint the truth with a procedural pattern (none, stripes, checker): coloured scans, a coloured "
+                  "model and its colour error (docs/colour.md)");
   sub->add_flag("--no-report", o.no_report, "Do not write report.html at the end");
   sub->add_flag("--no-eval", o.no_eval, "Do not compute ground-truth figures per iteration");
 }
@@ -62,6 +66,10 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   if (o.seed) base.session.seed = *o.seed;
   if (o.depth) base.session.poisson.depth = *o.depth;  // range-checked by base.validate() below
   if (!o.rig.empty()) base.rig.kind = autoscan::Rig::parse_kind(o.rig);
+  if (!o.paint.empty()) {
+    autoscan::paint_from_name(o.paint, "--paint");
+    base.paint = o.paint;
+  }
   if (o.no_report) base.report = false;
   if (o.no_eval) base.evaluate = false;
   if (!o.checkpoints.empty()) {
@@ -104,6 +112,7 @@ void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const s
     refuse("--max-views", std::to_string(*o.max_views), std::to_string(rec.session.max_views));
   if (o.max_iterations && *o.max_iterations != rec.session.max_iterations)
     refuse("--max-iterations", std::to_string(*o.max_iterations), std::to_string(rec.session.max_iterations));
+  if (!o.paint.empty() && o.paint != rec.paint) refuse("--paint", o.paint, rec.paint);
   if (!o.rig.empty() && autoscan::Rig::parse_kind(o.rig) != rec.rig.kind)
     refuse("--rig", o.rig, autoscan::Rig::kind_name(rec.rig.kind));
   auto joined = [](const std::vector<int>& v) {
@@ -200,7 +209,8 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
       r = autoscan::simulation::resume(o->out, g.progress());
     } else {
       autoscan::cli::require_input_file(o->mesh, "--mesh");
-      const auto options = build_options(*o, {});
+      const SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary
+      const auto options = build_options(*o, defaults);
       const auto mesh = autoscan::io::read_mesh(o->mesh);
       r = autoscan::simulation::simulate(mesh, o->out, options, g.progress(), o->mesh);
     }
@@ -227,6 +237,7 @@ AUTOSCAN_CLI_COMMAND(demo, 10, [](CLI::App& root, autoscan::cli::Globals& g) {
     // The demo's budget keeps it to a few minutes on 2 cores.
     base.session.max_views = 40;
     base.session.max_iterations = 8;
+    base.paint = "stripes";  // the coloured built-in object (docs/colour.md); --paint none turns it off
     const auto options = build_options(*o, base);
     autoscan::log::info(
         "demo: scanning the built-in procedural object (smooth, detailed, thin, overhanging and "

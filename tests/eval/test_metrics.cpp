@@ -231,3 +231,30 @@ TEST(ProceduralObject, SdfIsABoundOnTheDistanceToItsMesh) {
     EXPECT_LE(std::abs(obj.sdf(p)), md.distance(p) + 2e-3);
   }
 }
+
+// ---- colour error (docs/colour.md) ---------------------------------------------------------------
+
+TEST(ColorError, IsTheRgbDistanceToTheTruthColourAtTheNearestPoint) {
+  // Truth: a quad, left half red, right half blue (separate vertices). Reconstruction: points just
+  // above it, coloured with a known offset.
+  TriangleMesh truth;
+  truth.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)};
+  truth.faces = {{0, 1, 2}, {0, 2, 3}};
+  truth.vertex_colors = {Rgb{0, 0, 0}, Rgb{200, 0, 0}, Rgb{200, 0, 0}, Rgb{0, 0, 0}};  // red ramp along x
+  TriangleMesh recon;
+  recon.vertices = {Vec3(0.25, 0.5, 0.001), Vec3(0.75, 0.5, 0.001), Vec3(0.5, 0.2, 0.001), Vec3(0.5, 0.5, 0.5)};
+  recon.faces = {{0, 1, 2}};
+  // Truth colours there: 50, 150, 100 in red. Offsets (3, 4, 0) → 5, (0, 0, 12) → 12, exact → 0.
+  recon.vertex_colors = {Rgb{53, 4, 0}, Rgb{150, 0, 12}, Rgb{100, 0, 0}, Rgb{255, 255, 255}};
+  const auto e = eval::color_error(recon, truth, 0.01);
+  EXPECT_EQ(e.vertices, 3u);  // the vertex 0.5 above the truth is not counted
+  EXPECT_NEAR(e.counted_share, 0.75, 1e-12);
+  EXPECT_NEAR(e.mean, (5.0 + 12.0 + 0.0) / 3.0, 1e-9);
+  EXPECT_NEAR(e.median, 5.0, 1e-9);
+  TriangleMesh bare = recon;
+  bare.vertex_colors.clear();
+  EXPECT_THROW(eval::color_error(bare, truth), InputError);
+  TriangleMesh grey = truth;
+  grey.vertex_colors.clear();
+  EXPECT_THROW(eval::color_error(recon, grey), InputError);
+}

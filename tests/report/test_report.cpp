@@ -69,13 +69,26 @@ void write_synthetic_session(const fs::path& dir) {
     mesh.vertex_scalars.set("f_g", fg);
     mesh.vertex_scalars.set("f_s", fs);
     io::write_mesh(idir / "mesh.ply", mesh);
-    nlohmann::json views = {
-        {"views",
-         {{{"position", {1.2, 0, 0.3}}, {"direction", {-1, 0, -0.25}}, {"up", {0, 0, 1}}, {"score", 0.8},
-           {"target", {0.5, 0, 0.1}}},
-          {{"position", {0, 1.2, 0.6}}, {"direction", {0, -1, -0.5}}, {"up", {0, 0, 1}}, {"score", 0.6},
-           {"target", {0, 0.5, 0.2}}}}},
-        {"path_length", 1.8}};
+    if (k == 1) {
+      // The last iteration has a coloured model (docs/colour.md): red above z = 0, blue below.
+      TriangleMesh colored = mesh;
+      colored.vertex_scalars = {};
+      for (const auto& v : mesh.vertices)
+        colored.vertex_colors.push_back(v.z() > 0 ? Rgb{210, 20, 20} : Rgb{20, 40, 210});
+      io::write_mesh(idir / "mesh_color.ply", colored);
+    }
+    nlohmann::json views = {{"views",
+                             {{{"position", {1.2, 0, 0.3}},
+                               {"direction", {-1, 0, -0.25}},
+                               {"up", {0, 0, 1}},
+                               {"score", 0.8},
+                               {"target", {0.5, 0, 0.1}}},
+                              {{"position", {0, 1.2, 0.6}},
+                               {"direction", {0, -1, -0.5}},
+                               {"up", {0, 0, 1}},
+                               {"score", 0.6},
+                               {"target", {0, 0.5, 0.2}}}}},
+                            {"path_length", 1.8}};
     write_text_atomic(idir / "views.json", views.dump(2));
     io::Image img;
     img.width = 32;
@@ -92,8 +105,11 @@ void write_synthetic_session(const fs::path& dir) {
                      {"seconds", {{"poisson", 1.0 + k}, {"nbv", 0.5}}},
                      {"truth", {{"accuracy_mean", 0.004 - 0.001 * k}, {"coverage", 0.8 + 0.1 * k}}}});
   }
-  nlohmann::json session = {{"format", "autoscan-session"}, {"version", 1}, {"planner", "poisson"},
-                            {"iterations", iters},           {"stop_reason", "confidence converged"}};
+  nlohmann::json session = {{"format", "autoscan-session"},
+                            {"version", 1},
+                            {"planner", "poisson"},
+                            {"iterations", iters},
+                            {"stop_reason", "confidence converged"}};
   write_text_atomic(dir / "session.json", session.dump(2));
 }
 

@@ -29,7 +29,7 @@ TEST(SimulateOptions, JsonKeepsItsKeysAndRoundTrips) {
   std::vector<std::string> keys;
   for (const auto& [k, v] : j.items()) keys.push_back(k);
   EXPECT_EQ(keys,
-            (std::vector<std::string>{"blind", "checkpoints", "eval", "evaluate", "normalize", "report", "rig",
+            (std::vector<std::string>{"blind", "checkpoints", "eval", "evaluate", "normalize", "paint", "report", "rig",
                                       "scannable", "scannable_cache", "scannable_options", "scanner", "session"}));
   EXPECT_EQ(j.at("blind").size(), 4u);
   EXPECT_EQ(j.at("eval").size(), 5u);

@@ -45,10 +45,14 @@ void ScannerSpec::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(n.magnitude >= 0 && n.magnitude <= 1, "{}: noise magnitude must be in [0, 1], got {}", what,
                    n.magnitude);
   for (double v : {n.depth_sigma, n.depth_distance_power, n.depth_incidence_gain, n.outlier_fraction, n.outlier_range,
-                   n.pose_translation_sigma, n.pose_rotation_sigma_deg})
+                   n.pose_translation_sigma, n.pose_rotation_sigma_deg, n.color_sigma, n.exposure_sigma})
     AUTOSCAN_REQUIRE(std::isfinite(v) && v >= 0 && v <= kMaxCoordinate,
                      "{}: noise parameters must be finite, >= 0 and <= {:g}, got {}", what, kMaxCoordinate, v);
   AUTOSCAN_REQUIRE(n.outlier_fraction <= 1, "{}: outlier_fraction must be <= 1", what);
+  AUTOSCAN_REQUIRE(n.color_sigma <= 255, "{}: noise color_sigma must be <= 255, got {}", what, n.color_sigma);
+  AUTOSCAN_REQUIRE(n.exposure_sigma <= 5, "{}: noise exposure_sigma must be <= 5, got {}", what, n.exposure_sigma);
+  AUTOSCAN_REQUIRE(std::isfinite(ambient) && ambient >= 0 && ambient <= 1, "{}: ambient must be in [0, 1], got {}",
+                   what, ambient);
 }
 
 nlohmann::json to_json(const ScannerSpec& s) {
@@ -61,6 +65,7 @@ nlohmann::json to_json(const ScannerSpec& s) {
           {"baseline", s.baseline},
           {"projector_fov_deg", s.projector_fov_deg},
           {"max_incidence_deg", s.max_incidence_deg},
+          {"ambient", s.ambient},
           {"noise",
            {{"magnitude", n.magnitude},
             {"depth_sigma", n.depth_sigma},
@@ -69,7 +74,9 @@ nlohmann::json to_json(const ScannerSpec& s) {
             {"outlier_fraction", n.outlier_fraction},
             {"outlier_range", n.outlier_range},
             {"pose_translation_sigma", n.pose_translation_sigma},
-            {"pose_rotation_sigma_deg", n.pose_rotation_sigma_deg}}}};
+            {"pose_rotation_sigma_deg", n.pose_rotation_sigma_deg},
+            {"color_sigma", n.color_sigma},
+            {"exposure_sigma", n.exposure_sigma}}}};
 }
 
 namespace {
@@ -96,9 +103,10 @@ void read_field(const nlohmann::json& j, const char* key, T& out, const std::str
 ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) {
   AUTOSCAN_REQUIRE(j.is_object(), "{}: a scanner spec must be a JSON object", what);
   ScannerSpec s;
-  require_known_fields(
-      j, {"near", "far", "fov_deg", "width", "height", "baseline", "projector_fov_deg", "max_incidence_deg", "noise"},
-      what, "");
+  require_known_fields(j,
+                       {"near", "far", "fov_deg", "width", "height", "baseline", "projector_fov_deg",
+                        "max_incidence_deg", "ambient", "noise"},
+                       what, "");
   read_field(j, "near", s.near, what);
   read_field(j, "far", s.far, what);
   read_field(j, "fov_deg", s.fov_deg, what);
@@ -107,16 +115,18 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
   read_field(j, "baseline", s.baseline, what);
   read_field(j, "projector_fov_deg", s.projector_fov_deg, what);
   read_field(j, "max_incidence_deg", s.max_incidence_deg, what);
+  read_field(j, "ambient", s.ambient, what);
   if (j.contains("noise")) {
     const auto& n = j.at("noise");
     if (n.is_number()) {
       s.noise.magnitude = n.get<double>();
     } else {
       AUTOSCAN_REQUIRE(n.is_object(), "{}: 'noise' must be a number or an object", what);
-      require_known_fields(n,
-                           {"magnitude", "depth_sigma", "depth_distance_power", "depth_incidence_gain",
-                            "outlier_fraction", "outlier_range", "pose_translation_sigma", "pose_rotation_sigma_deg"},
-                           what, "noise.");
+      require_known_fields(
+          n,
+          {"magnitude", "depth_sigma", "depth_distance_power", "depth_incidence_gain", "outlier_fraction",
+           "outlier_range", "pose_translation_sigma", "pose_rotation_sigma_deg", "color_sigma", "exposure_sigma"},
+          what, "noise.");
       read_field(n, "magnitude", s.noise.magnitude, what);
       read_field(n, "depth_sigma", s.noise.depth_sigma, what);
       read_field(n, "depth_distance_power", s.noise.depth_distance_power, what);
@@ -125,6 +135,8 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
       read_field(n, "outlier_range", s.noise.outlier_range, what);
       read_field(n, "pose_translation_sigma", s.noise.pose_translation_sigma, what);
       read_field(n, "pose_rotation_sigma_deg", s.noise.pose_rotation_sigma_deg, what);
+      read_field(n, "color_sigma", s.noise.color_sigma, what);
+      read_field(n, "exposure_sigma", s.noise.exposure_sigma, what);
     }
   }
   s.validate(what);

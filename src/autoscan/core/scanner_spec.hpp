@@ -20,6 +20,11 @@ struct NoiseSpec {
   double outlier_range = 0.05;            ///< outliers are displaced uniformly within +-range along the ray
   double pose_translation_sigma = 0.004;  ///< robot pose error: std-dev of the position error
   double pose_rotation_sigma_deg = 0.4;   ///< robot pose error: std-dev of the rotation error (degrees)
+  /// Colour camera noise: std-dev of each channel of each point's colour (0-255 scale).
+  double color_sigma = 4.0;
+  /// Exposure differences between scans: each scan's colours are multiplied by exp(N(0, σ)), σ this
+  /// value (so one scan may be darker, another over-exposed and clipped at 255).
+  double exposure_sigma = 0.15;
 };
 
 struct ScannerSpec {
@@ -34,6 +39,11 @@ struct ScannerSpec {
   /// the default baseline (the projector's vertical field follows the camera's aspect ratio).
   double projector_fov_deg = 36.0;
   double max_incidence_deg = 75.0;  ///< largest angle between the ray and the surface normal
+  /// The colour camera's own light (a ring light at the camera): a point of albedo a seen at the
+  /// angle θ between ray and normal has the colour a·(ambient + (1 − ambient)·cos θ) (Lambertian),
+  /// times the scan's exposure, plus colour noise, clipped to [0, 255]. At normal incidence without
+  /// noise it is the albedo.
+  double ambient = 0.25;
   NoiseSpec noise;
 
   /// d_o = (d_n + d_f)/2, the optimal working distance (paper §5.1, below Eq. 4).

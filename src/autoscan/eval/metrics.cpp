@@ -364,4 +364,50 @@ void write_histogram_svg(const std::filesystem::path& path, const ErrorHistogram
   write_histogram_svg(path, {{"reconstruction", h}}, title);
 }
 
+ColorError color_error(const TriangleMesh& recon, const TriangleMesh& truth, double max_distance) {
+  AUTOSCAN_REQUIRE(recon.vertex_colors.size() == recon.vertices.size() && !recon.vertices.empty(),
+                   "colour error: the reconstruction has no vertex colours");
+  AUTOSCAN_REQUIRE(truth.has_surface_colors(), "colour error: the truth has no colour");
+  const MeshDistance md(truth, "truth");
+  const double limit = max_distance * truth.bounds().diagonal();
+  std::vector<double> err(recon.vertices.size(), -1.0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, recon.vertices.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                        const ClosestPoint c = md.closest(recon.vertices[v]);
+                        if (c.face < 0 || c.distance > limit) continue;
+                        const Tri& t = truth.faces[static_cast<std::size_t>(c.face)];
+                        const Vec3 a = truth.vertices[static_cast<std::size_t>(t[0])];
+                        const Vec3 e1 = truth.vertices[static_cast<std::size_t>(t[1])] - a;
+                        const Vec3 e2 = truth.vertices[static_cast<std::size_t>(t[2])] - a;
+                        const Vec3 d = c.point - a;
+                        const double d00 = e1.dot(e1), d01 = e1.dot(e2), d11 = e2.dot(e2);
+                        const double den = d00 * d11 - d01 * d01;
+                        double b1 = 0.0, b2 = 0.0;
+                        if (std::abs(den) > 0.0) {
+                          b1 = std::clamp((d11 * d.dot(e1) - d01 * d.dot(e2)) / den, 0.0, 1.0);
+                          b2 = std::clamp((d00 * d.dot(e2) - d01 * d.dot(e1)) / den, 0.0, 1.0 - b1);
+                        }
+                        const Vec3 want = truth.color_at(static_cast<std::size_t>(c.face), b1, b2);
+                        const Rgb& got = recon.vertex_colors[v];
+                        err[v] = (Vec3(got[0], got[1], got[2]) - want).norm();
+                      }
+                    });
+  std::vector<double> kept;
+  kept.reserve(err.size());
+  for (double e : err)
+    if (e >= 0.0) kept.push_back(e);
+  ColorError out;
+  out.vertices = kept.size();
+  out.counted_share = static_cast<double>(kept.size()) / static_cast<double>(recon.vertices.size());
+  if (kept.empty()) return out;
+  double sum = 0.0;
+  for (double e : kept) sum += e;
+  out.mean = sum / static_cast<double>(kept.size());
+  std::sort(kept.begin(), kept.end());
+  out.median = kept[kept.size() / 2];
+  out.p90 = kept[static_cast<std::size_t>(0.9 * static_cast<double>(kept.size() - 1))];
+  return out;
+}
+
 }  // namespace autoscan::eval

@@ -114,6 +114,20 @@ struct CoverageSplit {
 CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& reference, const TriangleMesh& truth,
                              double tau = 0.005, std::size_t samples = 200000, std::uint64_t seed = 1);
 
+/// Colour error of a coloured reconstruction against a coloured truth (docs/colour.md): for each
+/// vertex of `recon` (with vertex colours) within `max_distance` × diagonal(truth) of the truth, the
+/// plain RGB Euclidean distance (0-255 per channel, so 0 to 441.7) between its colour and the truth's
+/// colour (TriangleMesh::color_at) at the nearest truth surface point.
+struct ColorError {
+  double mean = 0;           ///< mean RGB distance over the counted vertices
+  double median = 0;         ///< their median
+  double p90 = 0;            ///< their 90th percentile
+  std::size_t vertices = 0;  ///< vertices counted
+  double counted_share = 0;  ///< share of recon's vertices counted
+};
+/// Throws InputError when recon has no vertex colours or truth has no surface colour.
+ColorError color_error(const TriangleMesh& recon, const TriangleMesh& truth, double max_distance = 0.01);
+
 /// Writes the histogram as CSV: `bin_lo,bin_hi,share,count` then an `overflow` row. Atomic.
 void write_histogram_csv(const std::filesystem::path& path, const ErrorHistogram& h);
 /// Writes a bar chart (SVG) of one or more histograms with the same edges, side by side per bin

@@ -208,7 +208,11 @@ struct PlyVertexData {
   const ScalarAttributes& scalars;
 };
 void write_ply(std::ostream& os, const PlyVertexData& v, const std::vector<Tri>& faces, const WriteOptions& o);
-void write_obj(std::ostream& os, const TriangleMesh& mesh);
+/// The material name a textured OBJ export uses (its MTL defines it with map_Kd).
+inline constexpr const char* kObjMaterialName = "autoscan_texture";
+/// Writes `mesh` as OBJ; a textured mesh with a non-empty `material_library` also gets `mtllib`,
+/// `usemtl` and its corner UVs.
+void write_obj(std::ostream& os, const TriangleMesh& mesh, const std::string& material_library = {});
 void write_off(std::ostream& os, const TriangleMesh& mesh);
 void write_stl(std::ostream& os, const TriangleMesh& mesh, bool ascii);
 void write_pcd(std::ostream& os, const PointCloud& cloud, const WriteOptions& o);

@@ -7,6 +7,7 @@
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/io/detail_parse.hpp"
+#include "autoscan/io/image.hpp"
 
 namespace autoscan::io {
 namespace fs = std::filesystem;
@@ -121,6 +122,47 @@ GeometryFile read_geometry(const fs::path& path) {
   return parse_geometry(bytes, kind, p);
 }
 
+namespace {
+
+/// The map_Kd of `material` (or of the first material when it is empty or not defined) in the MTL
+/// file at `mtl`; empty when that material has none.
+std::string mtl_diffuse_map(const fs::path& mtl, const std::string& material) {
+  const std::string p = mtl.string();
+  const std::string bytes = detail::load_file(mtl);
+  detail::require_text(p, bytes, "MTL");
+  std::string current, first_map, wanted_map;
+  bool wanted_defined = false;
+  std::size_t pos = 0;
+  while (pos < bytes.size()) {
+    std::size_t end = bytes.find('\n', pos);
+    if (end == std::string::npos) end = bytes.size();
+    std::string line = bytes.substr(pos, end - pos);
+    pos = end + 1;
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+    std::size_t b = 0;
+    while (b < line.size() && std::isspace(static_cast<unsigned char>(line[b]))) ++b;
+    line.erase(0, b);
+    const std::size_t sp = line.find_first_of(" \t");
+    const std::string key = line.substr(0, sp);
+    std::string value = sp == std::string::npos ? std::string() : line.substr(sp + 1);
+    value.erase(0, value.find_first_not_of(" \t") == std::string::npos ? value.size() : value.find_first_not_of(" \t"));
+    if (key == "newmtl") {
+      current = value;
+      if (current == material) wanted_defined = true;
+    } else if (key == "map_Kd" && !value.empty()) {
+      // Options (-s, -o, ...) precede the file name: the name is the last token.
+      const std::size_t last = value.find_last_of(" \t");
+      const std::string file = last == std::string::npos ? value : value.substr(last + 1);
+      if (first_map.empty()) first_map = file;
+      if (!material.empty() && current == material && wanted_map.empty()) wanted_map = file;
+    }
+  }
+  return wanted_defined ? wanted_map : first_map;
+}
+
+}  // namespace
+
 TriangleMesh read_mesh(const fs::path& path) {
   GeometryFile g = read_geometry(path);
   AUTOSCAN_REQUIRE(!g.faces.empty(), "{}: has no faces ({} vertices): not a mesh (read it as a point cloud)",
@@ -131,6 +173,18 @@ TriangleMesh read_mesh(const fs::path& path) {
   m.vertex_colors = std::move(g.vertices.colors);
   m.vertex_scalars = std::move(g.vertices.scalars);
   m.faces = std::move(g.faces);
+  if (!g.face_uvs.empty() && !g.material_library.empty()) {
+    const fs::path mtl = path.parent_path() / g.material_library;
+    const std::string map = mtl_diffuse_map(mtl, g.material);
+    if (!map.empty()) {
+      const fs::path png = mtl.parent_path() / map;
+      std::string ext = png.extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+      AUTOSCAN_REQUIRE(ext == ".png", "{}: map_Kd '{}' is not a PNG (only PNG textures are read)", mtl.string(), map);
+      m.texture = read_png(png);
+      m.face_uvs = std::move(g.face_uvs);
+    }
+  }
   return m;
 }
 
@@ -171,7 +225,17 @@ void write_mesh(const fs::path& path, const TriangleMesh& mesh, const WriteOptio
       break;
     }
     case FileFormat::obj:
-      write_file_atomic(path, [&](std::ostream& os) { detail::write_obj(os, mesh); });
+      if (mesh.has_texture()) {
+        // The texture and the MTL first, the OBJ that names them last.
+        const std::string stem = path.stem().string();
+        write_png(path.parent_path() / (stem + ".png"), mesh.texture);
+        write_text_atomic(path.parent_path() / (stem + ".mtl"),
+                          fmt::format("# written by autoscan\nnewmtl {}\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nmap_Kd {}.png\n",
+                                      detail::kObjMaterialName, stem));
+        write_file_atomic(path, [&](std::ostream& os) { detail::write_obj(os, mesh, stem + ".mtl"); });
+      } else {
+        write_file_atomic(path, [&](std::ostream& os) { detail::write_obj(os, mesh); });
+      }
       break;
     case FileFormat::off:
       write_file_atomic(path, [&](std::ostream& os) { detail::write_off(os, mesh); });

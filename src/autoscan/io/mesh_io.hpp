@@ -37,6 +37,12 @@ struct GeometryFile {
   std::string format;           ///< e.g. "ply binary_little_endian", "off", "stl ascii"
   std::size_t polygons = 0;     ///< faces in the file before triangulation
   std::size_t stl_corners = 0;  ///< STL only: corner count before exact welding
+  /// OBJ only: the texture coordinates of each triangle's corners (3 per face, after
+  /// fan-triangulation), when every face corner names one (`f v/vt ...`); else empty.
+  std::vector<Eigen::Vector2d> face_uvs;
+  /// OBJ only: the material library named by `mtllib` (as written in the file), and the material of
+  /// the first `usemtl` (empty when none).
+  std::string material_library, material;
 };
 
 /// Reads any supported file. Faces may be empty.
@@ -49,7 +55,12 @@ GeometryFile parse_geometry(const std::string& bytes, FileFormat format, const s
 
 /// Reads a triangle mesh (polygons fan-triangulated; STL vertices welded when bit-identical).
 /// PLY vertex normals, colours (red green blue) and other scalar vertex properties are kept.
-/// Throws InputError when the file has no faces.
+/// An OBJ's vertex colours (`v x y z r g b`) are kept; an OBJ whose faces all carry texture
+/// coordinates and that names an `mtllib` gets its texture: the MTL file (next to the OBJ) is read,
+/// the `map_Kd` of the material first used (else of the first material) is read as a PNG (relative
+/// to the MTL) into mesh.texture with the corner UVs in mesh.face_uvs. A missing or unreadable MTL
+/// or texture, a map_Kd that is not a .png, is an InputError naming that file; an MTL without
+/// map_Kd leaves the mesh untextured. Throws InputError when the file has no faces.
 TriangleMesh read_mesh(const std::filesystem::path& path);
 
 /// Reads a point cloud: a PLY's vertex element (x y z, optional nx ny nz, red green blue, any
@@ -69,8 +80,10 @@ struct WriteOptions {
 };
 
 /// Writes a mesh, format by extension: .ply (vertex normals, colours and named scalars kept),
-/// .obj (normals and colours kept), .off (normals and colours: NOFF/COFF/CNOFF), .stl (geometry
-/// only, face normals computed). Throws InputError for an unknown extension, a point-cloud format
+/// .obj (normals and vertex colours kept; a textured mesh also writes its corner UVs as `vt`, and
+/// next to it `<stem>.mtl` naming `<stem>.png`, the texture, each atomically), .off (normals and colours:
+/// NOFF/COFF/CNOFF), .stl (geometry only, face normals computed). Throws InputError for an unknown extension, a
+/// point-cloud format
 /// (.pcd .xyz .pts) or an invalid mesh.
 void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh, const WriteOptions& options = {});
 

@@ -1,12 +1,11 @@
 #include "autoscan/report/report.hpp"
 
-#include <nlohmann/json.hpp>
-
-#include <fstream>
-#include <optional>
-#include <unordered_map>
 #include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
+#include <unordered_map>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
@@ -75,11 +74,20 @@ std::string escape_html(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '&': o += "&amp;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '&':
+        o += "&amp;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
+      default:
+        o += c;
     }
   }
   return o;
@@ -164,6 +172,7 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
   manifest["title"] = opt.title.empty() ? fs::absolute(dir).filename().string() : opt.title;
   if (session.contains("scanner")) manifest["scanner"] = session["scanner"];
   json iterations = json::array();
+  bool any_color = false;  // a coloured model: the viewer opens on it (docs/colour.md)
   json plots;
   for (const char* k : {"mean_f", "mean_f_g", "mean_f_s", "accuracy_mean", "completeness_mean", "coverage"})
     plots[k] = json::array();
@@ -225,6 +234,22 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
     }
     if (fs::exists(idir / "mesh.ply", ec)) {
       TriangleMesh mesh = io::read_mesh(idir / "mesh.ply");
+      // The coloured model (docs/colour.md): its colours ride along as scalars, so that display
+      // decimation averages them like f.
+      bool colored = false;
+      if (fs::exists(idir / "mesh_color.ply", ec)) {
+        const TriangleMesh cm = io::read_mesh(idir / "mesh_color.ply");
+        if (cm.vertices.size() == mesh.vertices.size() && cm.vertex_colors.size() == cm.vertices.size()) {
+          const char* names[] = {"color_r", "color_g", "color_b"};
+          for (int c = 0; c < 3; ++c) {
+            std::vector<double> ch(cm.vertices.size());
+            for (std::size_t v = 0; v < ch.size(); ++v)
+              ch[v] = cm.vertex_colors[v][static_cast<std::size_t>(c)] / 255.0;
+            mesh.vertex_scalars.set(names[c], std::move(ch));
+          }
+          colored = true;
+        }
+      }
       if (mesh.faces.size() > opt.max_mesh_faces) mesh = cluster_vertices(mesh, opt.max_mesh_faces);
       std::vector<float> pos;
       pos.reserve(mesh.vertices.size() * 3);
@@ -242,6 +267,16 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
         }
       }
       m["scalars"] = scalars;
+      if (colored) {
+        const auto& r = mesh.vertex_scalars.get("color_r");
+        const auto& g = mesh.vertex_scalars.get("color_g");
+        const auto& b = mesh.vertex_scalars.get("color_b");
+        std::vector<float> rgb;
+        rgb.reserve(3 * r.size());
+        for (std::size_t v = 0; v < r.size(); ++v) rgb.insert(rgb.end(), {float(r[v]), float(g[v]), float(b[v])});
+        m["color"] = bufs.add(rgb);
+        any_color = true;
+      }
       it["mesh"] = m;
     }
     if (auto views = read_json_file(idir / "views.json")) {
@@ -259,6 +294,7 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
     while (v.size() < its.size()) v.push_back(nullptr);
   plots["seconds"] = seconds;
   manifest["iterations"] = iterations;
+  manifest["has_color"] = any_color;
   manifest["plots"] = plots;
   AUTOSCAN_REQUIRE(!iterations.empty(), "{}: the session has no iterations yet", session_path.string());
 
@@ -269,7 +305,7 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
   for (const auto& rec : its) {
     auto num = [&](const json& o, const char* key, int prec) {
       return o.is_object() && o.contains(key) && o[key].is_number() ? fmt::format("{:.{}f}", o[key].get<double>(), prec)
-                                                                      : std::string("–");
+                                                                    : std::string("–");
     };
     table << "<tr><td>" << rec.value("index", 0) << "</td><td>" << num(rec, "points", 0) << "</td><td>"
           << num(rec, "views", 0) << "</td><td>" << num(rec, "mean_f", 3) << "</td><td>" << num(rec, "mean_f_g", 3)
@@ -283,27 +319,29 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
   const std::string title = manifest["title"].get<std::string>();
 
   std::ostringstream html;
-  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>autoscan report — "
-       << escape_html(title) << "</title><style>" << kStyle << "</style></head><body>\n"
-       << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size()
-       << " iterations · planner " << escape_html(session.value("planner", std::string("poisson")))
-       << " · stop: " << escape_html(stop) << "</p></header>\n<main><section>\n"
-       << "<div class=\"controls\"><label>iteration <input type=\"range\" id=\"iteration\" min=\"0\" step=\"1\"></label>"
-       << "<span id=\"iteration-label\"></span></div>\n"
-       << "<div class=\"controls\"><label>colour mesh by <select id=\"color-by\"><option value=\"f\">f (confidence)"
-          "</option><option value=\"f_g\">f_g (completeness)</option><option value=\"f_s\">f_s (smoothness)</option>"
-          "</select></label><label><input type=\"checkbox\" id=\"show-cloud\" checked> points</label>"
-          "<label><input type=\"checkbox\" id=\"show-mesh\" checked> Poisson mesh</label>"
-          "<label><input type=\"checkbox\" id=\"show-views\" checked> next views</label>"
-          "<label>mesh opacity <input type=\"range\" id=\"mesh-opacity\" min=\"0.1\" max=\"1\" step=\"0.05\" "
-          "value=\"0.85\"></label>"
-          "<span class=\"legend\"><span style=\"background:#3b4cc0\"></span>low <span style=\"background:#b40426\">"
-          "</span>high · <span style=\"background:#d91a1a\"></span>new points · <span style=\"background:#1a7f37\">"
-          "</span>views · <span style=\"background:#d97706\"></span>path</span></div>\n"
-       << "<div id=\"viewport\"></div>\n</section><aside><h3>Viewing vector field (slice)</h3>"
-       << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3>" << table.str()
-       << "</aside></main>\n<section style=\"padding:0 12px 12px\"><h3>Plots</h3><div id=\"plots\"></div></section>\n"
-       << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(manifest.dump()) << "</script>\n";
+  html
+      << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>autoscan report — "
+      << escape_html(title) << "</title><style>" << kStyle << "</style></head><body>\n"
+      << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size() << " iterations · planner "
+      << escape_html(session.value("planner", std::string("poisson"))) << " · stop: " << escape_html(stop)
+      << "</p></header>\n<main><section>\n"
+      << "<div class=\"controls\"><label>iteration <input type=\"range\" id=\"iteration\" min=\"0\" step=\"1\"></label>"
+      << "<span id=\"iteration-label\"></span></div>\n"
+      << "<div class=\"controls\"><label>colour mesh by <select id=\"color-by\"><option value=\"f\">f (confidence)"
+         "</option><option value=\"f_g\">f_g (completeness)</option><option value=\"f_s\">f_s (smoothness)</option>"
+         "<option value=\"color\">colour (scanned)</option>"
+         "</select></label><label><input type=\"checkbox\" id=\"show-cloud\" checked> points</label>"
+         "<label><input type=\"checkbox\" id=\"show-mesh\" checked> Poisson mesh</label>"
+         "<label><input type=\"checkbox\" id=\"show-views\" checked> next views</label>"
+         "<label>mesh opacity <input type=\"range\" id=\"mesh-opacity\" min=\"0.1\" max=\"1\" step=\"0.05\" "
+         "value=\"0.85\"></label>"
+         "<span class=\"legend\"><span style=\"background:#3b4cc0\"></span>low <span style=\"background:#b40426\">"
+         "</span>high · <span style=\"background:#d91a1a\"></span>new points · <span style=\"background:#1a7f37\">"
+         "</span>views · <span style=\"background:#d97706\"></span>path</span></div>\n"
+      << "<div id=\"viewport\"></div>\n</section><aside><h3>Viewing vector field (slice)</h3>"
+      << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3>" << table.str()
+      << "</aside></main>\n<section style=\"padding:0 12px 12px\"><h3>Plots</h3><div id=\"plots\"></div></section>\n"
+      << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(manifest.dump()) << "</script>\n";
   for (const auto& [id, b64] : bufs.items)
     html << "<script id=\"" << id << "\" type=\"application/octet-stream\">" << b64 << "</script>\n";
   html << "<script>" << script_safe(std::string(bundle)) << "</script>\n</body></html>\n";

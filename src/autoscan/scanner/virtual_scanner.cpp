@@ -52,6 +52,9 @@ struct VirtualScanner::Impl {
   double f = 1.0, cx = 0.0, cy = 0.0;
   double tan_proj_h = 0.0, tan_proj_v = 0.0;
   double cos_max = 0.0, tan_max = 0.0;
+  /// The mesh's surface colour (faces, vertex colours, texture and UVs; no vertices) when it has one:
+  /// scans then carry a colour per point. Empty faces: no colour.
+  TriangleMesh paint;
 
   void intersect(int n, const Vec3& org, const Vec3* dirs, unsigned* prim) const;
   void occluded(int n, const Vec3& org, const Vec3* dirs, const double* tfar, const bool* active, bool* hit) const;
@@ -134,6 +137,12 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
   std::vector<float> sigma(npix, 0.0f);
   std::vector<std::uint8_t> valid(npix, 0);
   std::vector<Counters> row_counts(static_cast<std::size_t>(height));
+  // Colour (when the mesh has one): the albedo at the true hit under the camera's light (ScannerSpec::
+  // ambient, Lambertian in the camera incidence), times this scan's exposure, plus colour noise.
+  const bool colored = !paint.faces.empty();
+  std::vector<Rgb> rgb(colored ? npix : 0, Rgb{0, 0, 0});
+  const double exposure =
+      std::exp(mag * noise.exposure_sigma * scan_rng.stream(0).stream(1).normal());  // one factor per scan
 
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     std::array<Vec3, kPacket> cam_dir, world_dir, shadow_dir;
@@ -142,6 +151,7 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
     std::array<bool, kPacket> active, blocked;
     for (int row = rows.begin(); row != rows.end(); ++row) {
       Rng rng = scan_rng.stream(static_cast<std::uint64_t>(row) + 1);
+      Rng color_rng = rng.stream(1);  // colour noise: its own stream, the depth draws are unchanged
       Counters& cnt = row_counts[static_cast<std::size_t>(row)];
       const double yc = (row + 0.5 - cy) / f;
       for (int col0 = 0; col0 < width; col0 += kPacket) {
@@ -216,6 +226,27 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
           }
           const std::size_t pix =
               static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col0 + i);
+          if (colored) {
+            const Tri& tri = faces[prim[i]];
+            const Vec3 x = rays.origin_local + z * world_dir[i];  // the true hit
+            const Vec3 e1 = vertices[static_cast<std::size_t>(tri[1])] - vertices[static_cast<std::size_t>(tri[0])];
+            const Vec3 e2 = vertices[static_cast<std::size_t>(tri[2])] - vertices[static_cast<std::size_t>(tri[0])];
+            const Vec3 d = x - vertices[static_cast<std::size_t>(tri[0])];
+            const double d00 = e1.dot(e1), d01 = e1.dot(e2), d11 = e2.dot(e2), d20 = d.dot(e1), d21 = d.dot(e2);
+            const double den = d00 * d11 - d01 * d01;
+            double b1 = 0.0, b2 = 0.0;
+            if (std::abs(den) > 0.0) {
+              b1 = std::clamp((d11 * d20 - d01 * d21) / den, 0.0, 1.0);
+              b2 = std::clamp((d00 * d21 - d01 * d20) / den, 0.0, 1.0 - b1);
+            }
+            const Vec3 albedo = paint.color_at(prim[i], b1, b2);
+            const double shade = (spec.ambient + (1.0 - spec.ambient) * cos_i) * exposure;
+            Rgb& out = rgb[pix];
+            for (int k = 0; k < 3; ++k) {
+              const double c = albedo[k] * shade + mag * noise.color_sigma * color_rng.normal();
+              out[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::clamp(std::lround(c), 0L, 255L));
+            }
+          }
           pc[pix] = cam_dir[i] * (z * (1.0 + delta / r));
           sigma[pix] = static_cast<float>(sd);
           valid[pix] = 1;
@@ -300,6 +331,7 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
     cloud.positions.push_back(world_from_cmd * pc[p]);
     cloud.normals.push_back(rot_cmd * nc[p]);
     res.pixels.push_back(static_cast<std::uint32_t>(p));
+    if (colored) cloud.colors.push_back(rgb[p]);
   }
   const std::size_t m = cloud.positions.size();
   cloud.scalars.set("scan_id", std::vector<double>(m, static_cast<double>(scan_id)));
@@ -333,6 +365,12 @@ VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec
   s.vertices.reserve(mesh.vertices.size());
   for (const auto& v : mesh.vertices) s.vertices.push_back(v - s.shift);
   s.faces = mesh.faces;
+  if (mesh.has_surface_colors()) {
+    s.paint.faces = mesh.faces;
+    s.paint.vertex_colors = mesh.vertex_colors;
+    s.paint.face_uvs = mesh.face_uvs;
+    s.paint.texture = mesh.texture;
+  }
 
   const double half = std::tan(spec.fov_deg * kDegToRad / 2.0);
   s.f = (spec.width / 2.0) / half;

@@ -20,8 +20,15 @@
 //     per-axis std-dev magnitude·pose_translation_sigma/√3, so its RMS length is the sigma), but the
 //     points are reported as if taken from the commanded pose. Each scan is therefore rigidly
 //     misaligned by `ScanResult::misalignment` (reported = misalignment · true).
+// Colour: when the mesh has a surface colour (vertex colours, or a texture with UVs:
+// TriangleMesh::color_at), every point gets the colour of its true hit under the camera's own light:
+// albedo · (ambient + (1 − ambient)·cos θ) · exposure + N(0, magnitude·color_sigma) per channel,
+// rounded and clipped to [0, 255]; exposure = exp(magnitude·exposure_sigma·N(0, 1)), one per scan
+// (ScannerSpec::ambient, NoiseSpec::color_sigma and exposure_sigma). Without noise and at normal
+// incidence the colour is the albedo. A mesh without colour gives scans without colour.
 // Results are deterministic in (seed, scan id) whatever the number of threads: pixel rows draw from
-// Rng(seed).stream(scan_id).stream(row + 1), the pose error from ….stream(0).
+// Rng(seed).stream(scan_id).stream(row + 1) (colour noise from its .stream(1)), the pose error from
+// ….stream(0), the exposure from ….stream(0).stream(1).
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>

@@ -34,6 +34,15 @@ constexpr std::span<const schema::EnumName<SmoothnessPoints>> enum_names(Smoothn
   return kSmoothnessPointsNames;
 }
 
+/// How the Poisson mesh's vertex colours are made from the coloured raw points near each vertex
+/// (session/quality.hpp, color_mesh_vertices): `quality` weighs each point by the precision its
+/// measurement had (1/σ², σ from range and incidence: ScannerSpec::relative_depth_sigma), so grazing
+/// and far views do not wash the colours out; `average` is the plain mean (PoissonRecon --colors).
+enum class ColorWeighting { quality, average };
+inline constexpr schema::EnumName<ColorWeighting> kColorWeightingNames[] = {{ColorWeighting::quality, "quality"},
+                                                                            {ColorWeighting::average, "average"}};
+constexpr std::span<const schema::EnumName<ColorWeighting>> enum_names(ColorWeighting) { return kColorWeightingNames; }
+
 struct SessionOptions {
   /// Sessions accumulate millions of raw points; each reconstruction consolidates a voxel-thinned
   /// subset of at most 200k points (then WLOP keeps 20 % of them when the data is noisy). Fewer
@@ -99,6 +108,11 @@ struct SessionOptions {
   int max_iterations = 15;  ///< budget of iterations (reconstructions); the last one only assesses
   int max_views = 200;      ///< budget of planned views over the session (Table 2: up to ~200)
   std::uint64_t seed = 42;  ///< seeds selective insertion and the planner's stream
+  /// Colour (docs/colour.md): how the mesh's vertex colours weigh the raw points (not a paper
+  /// constant; colour is not used to plan views, as in the paper) and how many nearest raw points
+  /// each vertex takes its colour from.
+  ColorWeighting color_weighting = ColorWeighting::quality;
+  int color_neighbours = 8;
 
   /// The session config, session.json's "params" and a simulation's "session" (docs/options.md).
   template <class V>
@@ -126,6 +140,8 @@ struct SessionOptions {
     v("max_iterations", max_iterations, schema::at_least(1));
     v("max_views", max_views, schema::at_least(0));
     v("seed", seed);
+    v("color_weighting", color_weighting);
+    v("color_neighbours", color_neighbours, schema::at_least(1));
   }
   /// Throws InputError naming the option for values out of range, in every stage's options
   /// (Session::create calls it: bad options are refused before any scan is acknowledged).

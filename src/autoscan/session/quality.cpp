@@ -50,6 +50,36 @@ std::vector<double> predicted_depth_sigma(const PointCloud& scan, const ScannerS
   return sigma;
 }
 
+std::vector<Rgb> color_vertices(std::span<const Vec3> vertices, const PointCloud& points,
+                                std::span<const double> weights, int k) {
+  if (!points.has_colors() || points.empty()) return {};
+  AUTOSCAN_REQUIRE(weights.empty() || weights.size() == points.size(), "colour: {} weights for {} points",
+                   weights.size(), points.size());
+  std::vector<Rgb> out(vertices.size(), Rgb{128, 128, 128});
+  const spatial::KdTree nn(points.positions);
+  const std::size_t kk = static_cast<std::size_t>(std::max(k, 1));
+  std::vector<std::size_t> idx;
+  std::vector<double> d2;
+  for (std::size_t v = 0; v < vertices.size(); ++v) {
+    const std::size_t m = nn.knn(vertices[v], kk, idx, d2);
+    if (m == 0) continue;
+    Vec3 sum = Vec3::Zero(), plain = Vec3::Zero();
+    double wsum = 0.0;
+    for (std::size_t j = 0; j < m; ++j) {
+      const Rgb& c = points.colors[idx[j]];
+      const Vec3 cv(c[0], c[1], c[2]);
+      const double w = weights.empty() ? 1.0 : weights[idx[j]];
+      sum += w * cv;
+      wsum += w;
+      plain += cv;
+    }
+    const Vec3 mean = wsum > 0.0 ? Vec3(sum / wsum) : Vec3(plain / static_cast<double>(m));
+    for (int c = 0; c < 3; ++c)
+      out[v][static_cast<std::size_t>(c)] = static_cast<std::uint8_t>(std::clamp(std::lround(mean[c]), 0L, 255L));
+  }
+  return out;
+}
+
 std::vector<double> sample_depth_sigma(std::span<const Vec3> samples, std::span<const Vec3> raw,
                                        std::span<const double> raw_sigma, int k) {
   AUTOSCAN_REQUIRE(raw.size() == raw_sigma.size(), "quality: {} σ values for {} points", raw_sigma.size(), raw.size());

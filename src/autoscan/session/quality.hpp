@@ -9,6 +9,7 @@
 
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/core/types.hpp"
 
 namespace autoscan::session {
 
@@ -17,6 +18,9 @@ namespace autoscan::session {
 inline constexpr const char* kDepthSigmaColumn = "depth_sigma_rel";
 /// The consolidated point column of the Poisson sample weights (precision_weights).
 inline constexpr const char* kQualityWeightColumn = "quality_weight";
+/// The model point column of each coloured point's colour weight: 1/σ² of its measurement
+/// (σ = ScannerSpec::relative_depth_sigma from range and incidence), set when the scan has colours.
+inline constexpr const char* kColorWeightColumn = "color_weight";
 
 /// Predicted relative depth σ of each point of `scan` (#P), measured from the sensor position in its
 /// scalars sensor_x/y/z. The incidence comes from the scan's normals, or, when it has none, from the
@@ -30,6 +34,13 @@ std::vector<double> sample_depth_sigma(std::span<const Vec3> samples, std::span<
 
 /// Poisson sample weights from σ: 1/σ², normalised to a mean of 1 (#S in, #S out).
 std::vector<double> precision_weights(std::span<const double> sigma);
+
+/// The colour of each of `vertices` from the coloured `points` (#P, with colours): the mean of the
+/// colours of its `k` nearest points, each weighted by `weights[i]` (#P, the colour weight column)
+/// when `weights` is not empty, equally otherwise; rounded to 0-255. A vertex whose neighbours all
+/// have weight 0 takes their plain mean. Deterministic. Empty when the points have no colours.
+std::vector<Rgb> color_vertices(std::span<const Vec3> vertices, const PointCloud& points,
+                                std::span<const double> weights, int k);
 
 /// The insertion test by quality: the model's consolidated surface with its σ; a new point landing
 /// within two sample spacings of it with more than `ratio` times its σ is refused.

@@ -11,6 +11,15 @@
 
 namespace autoscan::session {
 
+std::vector<Rgb> surface_colors(const TriangleMesh& mesh, const PointCloud& raw, ColorWeighting weighting,
+                                int neighbours) {
+  if (!raw.has_colors()) return {};
+  const auto* w = raw.scalars.find(kColorWeightColumn);
+  std::span<const double> weights;
+  if (weighting == ColorWeighting::quality && w && w->size() == raw.size()) weights = *w;
+  return color_vertices(mesh.vertices, raw, weights, neighbours);
+}
+
 Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& options,
                                  const ProgressCallback& progress) {
   AUTOSCAN_REQUIRE(!raw.empty(), "reconstruction: the model has no points");
@@ -81,6 +90,11 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   r.mean_f = cr.mean_f;
   r.mean_f_g = cr.mean_f_g;
   r.mean_f_s = cr.mean_f_s;
+  if (raw.has_colors()) {
+    clock.reset();
+    r.surface_colors = surface_colors(r.mesh, raw, options.color_weighting, options.color_neighbours);
+    r.seconds["color"] = clock.seconds();
+  }
   r.diagnostics["confidence"] = {{"iso_points", r.iso_points.size()},
                                  {"spacing", cr.spacing},
                                  {"reference_smoothness", cr.reference_smoothness},

@@ -24,6 +24,10 @@ struct Reconstruction {
   TriangleMesh mesh;                           ///< iso-surface; vertex scalars f, f_g, f_s (and "density" when known),
                                                ///< vertex colours by f
   PointCloud iso_points;                       ///< s_k with outward normals, scalars f, f_g, f_s, colours by f
+  /// The surface colour of each mesh vertex (docs/colour.md) from the coloured raw points, weighted
+  /// as options.color_weighting says; empty when the raw points have no colours. The session writes
+  /// the mesh with these colours as iterations/iter_KKK/mesh_color.ply.
+  std::vector<Rgb> surface_colors;
   double mean_f = 0.0;  ///< global confidence: mean of f over the iso-points (the stop rule's figure)
   double mean_f_g = 0.0;
   double mean_f_s = 0.0;
@@ -35,6 +39,12 @@ struct Reconstruction {
 /// sensor_x/y/z). Must be deterministic for equal inputs and options.
 using Reconstructor = std::function<Reconstruction(const PointCloud& raw, const SessionOptions& options,
                                                    const ProgressCallback& progress)>;
+
+/// The surface colours of `mesh`'s vertices from the coloured raw points (color_vertices with
+/// options.color_neighbours; weights: the raw column color_weight for ColorWeighting::quality,
+/// none for average). Empty when `raw` has no colours.
+std::vector<Rgb> surface_colors(const TriangleMesh& mesh, const PointCloud& raw, ColorWeighting weighting,
+                                int neighbours);
 
 /// The default: consolidate::consolidate → poisson::reconstruct → confidence::assess.
 /// Throws InputError when the points are too few or degenerate for a model.

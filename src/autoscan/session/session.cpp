@@ -144,7 +144,9 @@ void apply_transform(PointCloud& c, const Eigen::Isometry3d& T) {
 }
 
 // The part of a scan the model keeps: positions, scan_id and the sensor position.
-PointCloud model_part(const PointCloud& registered, const std::vector<char>& keep) {
+/// The points of `registered` that `keep` names, with what the model keeps of them: scan id, sensor
+/// position, the depth σ (fusion), colours and their colour weight (1/σ², from `scanner`).
+PointCloud model_part(const PointCloud& registered, const std::vector<char>& keep, const ScannerSpec& scanner) {
   PointCloud out;
   std::vector<double> id, sx, sy, sz;
   const auto& cid = registered.scalars.get("scan_id");
@@ -169,6 +171,20 @@ PointCloud model_part(const PointCloud& registered, const std::vector<char>& kee
     for (std::size_t i = 0; i < registered.size(); ++i)
       if (keep[i]) sigma.push_back((*q)[i]);
     out.scalars.set(kDepthSigmaColumn, std::move(sigma));
+  }
+  if (registered.has_colors()) {
+    const auto* q = registered.scalars.find(kDepthSigmaColumn);
+    const std::vector<double> sigma = q ? std::vector<double>() : predicted_depth_sigma(registered, scanner);
+    const std::vector<double>& s = q ? *q : sigma;
+    std::vector<double> w;
+    w.reserve(out.positions.size());
+    out.colors.reserve(out.positions.size());
+    for (std::size_t i = 0; i < registered.size(); ++i) {
+      if (!keep[i]) continue;
+      out.colors.push_back(registered.colors[i]);
+      w.push_back(1.0 / std::max(s[i] * s[i], 1e-12));
+    }
+    out.scalars.set(kColorWeightColumn, std::move(w));
   }
   return out;
 }
@@ -575,7 +591,7 @@ struct Session::Impl {
   // Appends the kept points of a scan: `reported` as received, `registered` after its correction.
   void append_to_model(const PointCloud& reported, const PointCloud& registered, const std::vector<char>& keep) {
     if (registered.empty()) return;
-    model.append(model_part(registered, keep));
+    model.append(model_part(registered, keep, scanner));
     const auto& sx = reported.scalars.get("sensor_x");
     const auto& sy = reported.scalars.get("sensor_y");
     const auto& sz = reported.scalars.get("sensor_z");
@@ -1067,6 +1083,15 @@ NextViews Session::next_views(const Pose& current) {
     io::WriteOptions exact;
     exact.double_coordinates = true;
     io::write_mesh(idir / "mesh.ply", rec->mesh, exact);
+    if (rec->surface_colors.size() == rec->mesh.vertices.size()) {
+      // The coloured model (docs/colour.md): the same mesh with the surface colours.
+      TriangleMesh colored;
+      colored.vertices = rec->mesh.vertices;
+      colored.faces = rec->mesh.faces;
+      colored.vertex_normals = rec->mesh.vertex_normals;
+      colored.vertex_colors = rec->surface_colors;
+      io::write_mesh(idir / "mesh_color.ply", colored, exact);
+    }
   }
   io::write_point_cloud(idir / "iso.ply", rec->iso_points, exact_ply());
   json extra = {{"iteration", k},

@@ -17,6 +17,7 @@
 #include "autoscan/session/reconstruct.hpp"
 #include "autoscan/session/session.hpp"
 #include "autoscan/shapes/normalize.hpp"
+#include "autoscan/shapes/paint.hpp"
 
 namespace autoscan::simulation {
 namespace fs = std::filesystem;
@@ -30,6 +31,7 @@ void SimulateOptions::validate(const std::string& what) const {
   blind.validate();
   eval.validate("evaluation");
   scannable_options.validate();
+  paint_from_name(paint, what + ": paint");
   schema::check(*this, what);  // the rest (checkpoints)
 }
 
@@ -82,8 +84,23 @@ json SimulateResult::to_json() const {
 }
 
 json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const TriangleMesh& truth,
-                   const eval::EvalOptions& options, const PointCloud* reference) {
+                   const eval::EvalOptions& options, const PointCloud* reference, int color_neighbours) {
   json t = json::object();
+  if (!recon.empty() && raw.has_colors() && truth.has_surface_colors()) {
+    // The coloured model against the truth's colour (docs/colour.md), both weightings from the same
+    // points: plain RGB distance, 0-255 per channel.
+    for (auto w : {session::ColorWeighting::quality, session::ColorWeighting::average}) {
+      TriangleMesh colored;
+      colored.vertices = recon.vertices;
+      colored.faces = recon.faces;
+      colored.vertex_colors = session::surface_colors(recon, raw, w, color_neighbours);
+      const auto e = eval::color_error(colored, truth, 2.0 * options.tau);
+      const std::string name = w == session::ColorWeighting::quality ? "quality" : "average";
+      t["color_error_" + name] = e.mean;
+      t["color_error_" + name + "_p90"] = e.p90;
+      t["color_error_counted_share"] = e.counted_share;
+    }
+  }
   if (!recon.empty()) {
     const auto r = eval::evaluate_mesh(recon, truth, options);
     t["accuracy_mean"] = r.accuracy.mean;
@@ -404,7 +421,7 @@ class Loop {
       if (fs::exists(p)) loaded = io::read_mesh(p);
       mesh = &loaded;
     }
-    json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval, reference());
+    json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval, reference(), opts_.session.color_neighbours);
     t["views_taken"] = views_done(s);
     if (!registration_errors_.empty()) {
       const json e = refresh_registration_errors(s);
@@ -441,7 +458,9 @@ class Loop {
     const int v = views_done(s);
     if (last_view_of_iteration || !is_pending_checkpoint(v)) return;
     const auto model = session::reconstruct_model(s.model_points(), s.options());
-    record_checkpoint(v, truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference()), model.mean_f);
+    record_checkpoint(
+        v, truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference(), opts_.session.color_neighbours),
+        model.mean_f);
   }
 
   // A kill between the add_scan of a view and its maybe_checkpoint: the session still holds the
@@ -553,6 +572,7 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
                    "{}: already holds a simulation (use --resume to continue it, or another --out)", out.string());
   TriangleMesh truth = truth_in;
   if (options.normalize) normalize_to_benchmark_frame(truth);
+  paint_mesh(truth, paint_from_name(options.paint, "simulation: paint"));
   remove_temporaries(out);
   fs::create_directories(out);
   // Double precision: resume() rebuilds the virtual scanner from this file, and a float-rounded mesh
@@ -579,7 +599,8 @@ RecordedSimulation recorded_simulation(const fs::path& out) {
   AUTOSCAN_REQUIRE(!sim.is_discarded() && sim.is_object() && sim.contains("options"), "{}: corrupt simulation file",
                    sim_path.string());
   RecordedSimulation r;
-  r.options = simulate_options_from_json(sim["options"], {}, sim_path.string());
+  const SimulateOptions defaults;  // a named base: GCC 12 warns (maybe-uninitialized) about a temporary
+  r.options = simulate_options_from_json(sim["options"], defaults, sim_path.string());
   if (sim.contains("source")) {
     AUTOSCAN_REQUIRE(sim["source"].is_string(), "{}: source: expected a string", sim_path.string());
     r.source = sim["source"].get<std::string>();
@@ -591,6 +612,7 @@ bool is_recorded_truth(const fs::path& out, const TriangleMesh& mesh) {
   const auto rec = recorded_simulation(out);
   TriangleMesh m = mesh;
   if (rec.options.normalize) normalize_to_benchmark_frame(m);
+  paint_mesh(m, paint_from_name(rec.options.paint, "simulation: paint"));
   const TriangleMesh truth = io::read_mesh(out / "truth.ply");
   return m.vertices == truth.vertices && m.faces == truth.faces;
 }

@@ -55,6 +55,11 @@ struct SimulateOptions {
   ScannableOptions scannable_options;
   std::filesystem::path scannable_cache;
   bool report = true;  ///< write report.html at the end
+  /// Paints the truth (after normalisation) with a procedural pattern (shapes/paint.hpp: "none",
+  /// "stripes", "checker"; docs/colour.md) so that the scans carry colour and the coloured model
+  /// is measured (truth figures color_error_quality / color_error_average). "none" keeps the
+  /// mesh's own colours, if any.
+  std::string paint = "none";
 
   /// The JSON form (a --config file, simulation.json's "options"; docs/options.md). `scanner` and
   /// `rig` are not in the list: they keep their own JSON readers (core/scanner_spec.hpp, rig.hpp),
@@ -71,6 +76,7 @@ struct SimulateOptions {
     v("scannable_options", scannable_options);
     v("scannable_cache", scannable_cache);
     v("report", report);
+    v("paint", paint);
   }
   void validate(const std::string& what = "simulation") const;
 };
@@ -130,7 +136,12 @@ bool is_recorded_truth(const std::filesystem::path& out, const TriangleMesh& mes
 /// precision/recall/F-score at τ, Figure 9 histogram) and the coverage of the raw points.
 /// With a scannable `reference` (scannable.hpp) also "coverage_scannable" (the coverage of the part of
 /// the truth the scanner can capture at all) and "scannable_share" (that part's share of the truth).
+/// With coloured raw points and a coloured truth also "color_error_quality" and "color_error_average"
+/// (and their _p90): the mean RGB distance (0-255 per channel) of the mesh coloured from the raw
+/// points (color_neighbours nearest) by each weighting, against the truth's colour at the nearest
+/// truth point (eval::color_error, vertices within 2τ), and "color_error_counted_share".
 nlohmann::json truth_figures(const TriangleMesh& recon, const PointCloud& raw_points, const TriangleMesh& truth,
-                             const eval::EvalOptions& options, const PointCloud* reference = nullptr);
+                             const eval::EvalOptions& options, const PointCloud* reference = nullptr,
+                             int color_neighbours = 8);
 
 }  // namespace autoscan::simulation
