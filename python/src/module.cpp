@@ -1067,8 +1067,9 @@ void bind_session(py::module_& m) {
       .def_property_readonly("stopped", [](const PyNextViews& n) { return n.r.stopped; })
       .def_property_readonly(
           "reason", [](const PyNextViews& n) { return n.r.reason; },
-          "Why it stopped: '', 'converged', 'confidence_fell', 'max_iterations', 'max_views', "
-          "'no_views'.")
+          "Why it stopped: '', 'complete', 'no_improvement', 'quality_fell' (the default rule), 'converged', "
+          "'confidence_fell' (the paper's rule), 'quality_fell_truth', 'max_iterations', 'max_views', 'no_views' "
+          "(docs/stop-rule.md).")
       .def_property_readonly("iteration", [](const PyNextViews& n) { return n.r.iteration; })
       .def_property_readonly("directory", [](const PyNextViews& n) { return n.r.directory; })
       .def_property_readonly(
@@ -1144,8 +1145,8 @@ returns. One process per directory (a lock file); close() or `with` releases it.
             return call([&] { return PyNextViews{from ? s.next_views(*from) : s.next_views()}; });
           },
           "current"_a = py::none(),
-          "Runs one iteration: consolidate -> Poisson -> confidence -> planner, or stops (|delta mean f| < "
-          "stop_threshold, a budget spent, nothing to scan). `current`: the scanner's pose (default: the last "
+          "Runs one iteration: consolidate -> Poisson -> confidence -> planner, or stops (the stop rule, "
+          "docs/stop-rule.md; a budget spent, nothing to scan). `current`: the scanner's pose (default: the last "
           "scan's).")
       .def(
           "status", [](PySession& ps) { return from_json(session::to_json(ps.get().status())); },

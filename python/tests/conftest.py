@@ -23,6 +23,7 @@ SESSION = {
     "confidence": {"iso": {"count": 1500}, "k": 30},
     "nbv": {"grid_resolution": 32, "cells": 4, "max_views": 3},
     "global_registration": False,
+    "stop": {"rule": "paper"},  # with stop_threshold 0 the paper's rule never fires: the budgets end the run
     "stop_threshold": 0.0,
     "max_iterations": 3,
 }

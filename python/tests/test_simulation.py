@@ -41,4 +41,7 @@ def test_robot_driver_example(tmp_path, eight_path):
         [sys.executable, SOURCE / "examples" / "python" / "robot_driver.py", eight_path, tmp_path / "drv",
          "--fast", "--max-iterations", "3"],
         check=True, capture_output=True, text=True, env=dict(os.environ)).stdout
-    assert "stopped (max_iterations) after 3 iterations" in out
+    # The stop rule (docs/stop-rule.md) or the budget of 3 iterations ends it.
+    import re
+    m = re.search(r"stopped \((\w+)\) after (\d+) iterations", out)
+    assert m and 1 <= int(m.group(2)) <= 3, out

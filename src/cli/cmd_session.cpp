@@ -154,6 +154,8 @@ AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) 
     log::info("{}: {} scans, {} model points, {} iterations, {} views planned{}", st->dir, status.scans,
               status.model_points, status.iterations, status.views_planned,
               status.stopped ? ", stopped (" + status.stop_reason + ")" : "");
+    if (status.certificate.is_object() && !g.json)
+      fmt::print("{}", session::describe(session::certificate_from_json(status.certificate)));
     g.emit({{"command", "session status"}, {"status", session::to_json(status)}});
   });
 });

@@ -8,6 +8,7 @@
 #include "autoscan/core/json_io.hpp"
 #include "autoscan/core/log.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/session/certificate.hpp"
 #include "autoscan/shapes/paint.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/simulate.hpp"
@@ -175,6 +176,10 @@ void print_human(const autoscan::simulation::SimulateResult& r) {
         "{:.5f}\n",
         r.best_iteration, r.best_mean_f, r.best_truth.value("coverage", 0.0), r.best_truth.value("fscore", 0.0),
         r.best_truth.value("accuracy_mean", 0.0));
+  if (r.certificate.is_object())
+    fmt::print("{}", autoscan::session::describe(autoscan::session::certificate_from_json(r.certificate)));
+  if (fs::exists(r.directory / "model.ply"))
+    fmt::print("result model (iteration {}): {}\n", r.best_iteration, fs::absolute(r.directory / "model.ply").string());
   if (r.pose_error_before > 0)
     fmt::print("registration: scan points {:.5f} -> {:.5f} from where they belong (mean)\n", r.pose_error_before,
                r.pose_error_after);

@@ -169,6 +169,71 @@ TEST(Report, MissingSessionIsInputError) {
   fs::remove_all(dir);
 }
 
+// The quality certificate (docs/stop-rule.md) heads the page: the verdict, each region and its reason,
+// the result iteration; a session without one says so.
+TEST(Report, ShowsTheQualityCertificate) {
+  const fs::path dir = fs::temp_directory_path() / ("autoscan_report_cert_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  write_synthetic_session(dir);
+  {
+    const std::string html = read_text_file(report::write_report(dir).html);
+    EXPECT_NE(html.find("Quality certificate"), std::string::npos);
+    EXPECT_NE(html.find("No certificate"), std::string::npos);
+  }
+  auto session = nlohmann::json::parse(read_text_file(dir / "session.json"));
+  session["best_iteration"] = 1;
+  session["iterations"][1]["certificate"] = {{"iteration", 1},
+                                             {"threshold", 0.45},
+                                             {"surface_area", 1.0},
+                                             {"share_confident", 0.95},
+                                             {"share_scattered", 0.0},
+                                             {"share_improvable", 0.03},
+                                             {"share_unreachable", 0.02},
+                                             {"share_too_noisy", 0.0},
+                                             {"regions_improved", 0},
+                                             {"regions_aimed_before", 1},
+                                             {"stalled_rounds", 1},
+                                             {"views_planned", 3},
+                                             {"done", false},
+                                             {"expected_accuracy", 0.00225},
+                                             {"regions",
+                                              {{{"id", 0},
+                                                {"area", 0.03},
+                                                {"share", 0.03},
+                                                {"centroid", {0.1, 0.2, 0.3}},
+                                                {"radius", 0.1},
+                                                {"mean_f", 0.1},
+                                                {"has_data", false},
+                                                {"reason", "not_scanned"},
+                                                {"views_aimed", 2},
+                                                {"stalls", 0},
+                                                {"ignored", 0},
+                                                {"previous", -1},
+                                                {"expected_accuracy", 0.00225}},
+                                               {{"id", 1},
+                                                {"area", 0.02},
+                                                {"share", 0.02},
+                                                {"centroid", {-0.1, 0.0, 0.3}},
+                                                {"radius", 0.05},
+                                                {"mean_f", 0.2},
+                                                {"has_data", false},
+                                                {"reason", "unreachable"},
+                                                {"views_aimed", 0},
+                                                {"stalls", 1},
+                                                {"ignored", 0},
+                                                {"previous", 0},
+                                                {"expected_accuracy", 0.00225}}}}};
+  write_text_atomic(dir / "session.json", session.dump(2));
+  const std::string html = read_text_file(report::write_report(dir).html);
+  EXPECT_NE(html.find("NOT DONE: 95.00 %"), std::string::npos);
+  EXPECT_NE(html.find("views can still improve 3.00 %, unreachable 2.00 %"), std::string::npos);
+  EXPECT_NE(html.find("<td>not_scanned</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>unreachable</td>"), std::string::npos);
+  EXPECT_NE(html.find("0.100, 0.200, 0.300"), std::string::npos);
+  EXPECT_NE(html.find("Result: iteration 1"), std::string::npos);
+  fs::remove_all(dir);
+}
+
 // Writes the fixture used by the browser tests (report/tests, CTest: report_browser).
 TEST(ReportFixture, WritesSyntheticSession) {
   const char* env = std::getenv("AUTOSCAN_REPORT_FIXTURE_DIR");

@@ -116,6 +116,9 @@ inline session::SessionOptions test_options() {
   // The sphere fixtures leave rotations about the centre free, which no registration can fix: the
   // global registration is tested on an asymmetric shape (tests/support/bumpy.hpp).
   o.global_registration = false;
+  // The scripted reconstructor builds no mesh, so no quality certificate: these tests drive the
+  // paper's rule (§5.3); the rule "remaining" has its own tests (test_stop_rule.cpp).
+  o.stop.rule = session::StopRule::paper;
   return o;
 }
 

@@ -117,6 +117,7 @@ TEST(OptionsSchema, EveryMemberIsListed) {
   // MultiwayOptions::incidence_gain comes from the scanner JSON in a session and is not listed.
   EXPECT_EQ(listed_fields<registration::MultiwayOptions>() + 1, member_count<registration::MultiwayOptions>());
   EXPECT_EQ(listed_fields<session::SessionOptions>(), member_count<session::SessionOptions>());
+  EXPECT_EQ(listed_fields<session::StopOptions>(), member_count<session::StopOptions>());
   EXPECT_EQ(listed_fields<planners::RandomPlannerOptions>(), member_count<planners::RandomPlannerOptions>());
   EXPECT_EQ(listed_fields<planners::SpherePlannerOptions>(), member_count<planners::SpherePlannerOptions>());
   EXPECT_EQ(listed_fields<planners::DensityPlannerOptions>(), member_count<planners::DensityPlannerOptions>());

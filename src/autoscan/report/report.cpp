@@ -107,6 +107,8 @@ const char* kStyle = R"CSS(
 body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0;background:#fafafa;color:#222}
 header{padding:10px 16px;background:#1f2937;color:#fff}header h1{font-size:18px;margin:0}
 header p{margin:4px 0 0;font-size:13px;color:#cbd5e1}
+.certificate{padding:4px 16px}.verdict{font-weight:600}.verdict.done{color:#1a7f37}.verdict.not-done{color:#b40426}
+.scroll{overflow-x:auto;max-width:100%}
 main{display:grid;grid-template-columns:minmax(0,1fr) 380px;gap:12px;padding:12px}
 #viewport{height:68vh;min-height:420px;background:#f4f4f4;border:1px solid #ddd;border-radius:6px;overflow:hidden}
 .controls{display:flex;flex-wrap:wrap;gap:12px;align-items:center;margin:8px 0;font-size:14px}
@@ -288,6 +290,7 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
       const std::string png = read_text_file(idir / "field_slice.png");
       it["slice"] = "data:image/png;base64," + base64(png.data(), png.size());
     }
+    if (rec.contains("certificate") && rec["certificate"].is_object()) it["certificate"] = rec["certificate"];
     iterations.push_back(it);
   }
   for (auto& [stage, v] : seconds.items())
@@ -318,13 +321,52 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
                          : "still running";
   const std::string title = manifest["title"].get<std::string>();
 
+  // The quality certificate of the last iteration (docs/stop-rule.md): is the scan done, and what is
+  // missing where, and why.
+  std::ostringstream cert_html;
+  {
+    const json& last = its.back();
+    const json cert = last.contains("certificate") ? last["certificate"] : json(nullptr);
+    cert_html << "<section class=\"certificate\"><h3>Quality certificate</h3>";
+    if (cert.is_object()) {
+      auto pct = [&](const char* key) { return fmt::format("{:.2f} %", 100.0 * cert.value(key, 0.0)); };
+      const bool done = cert.value("done", false);
+      cert_html << "<p class=\"verdict " << (done ? "done" : "not-done") << "\">" << (done ? "DONE" : "NOT DONE")
+                << ": " << pct("share_confident") << " of the surface has confidence &ge; "
+                << fmt::format("{:.3f}", cert.value("threshold", 0.0)) << "; views can still improve "
+                << pct("share_improvable") << ", unreachable " << pct("share_unreachable") << ", too noisy "
+                << pct("share_too_noisy") << ", scattered " << pct("share_scattered")
+                << ". Scanner's expected accuracy " << fmt::format("{:.3g}", cert.value("expected_accuracy", 0.0))
+                << ".";
+      if (session.contains("best_iteration") && session["best_iteration"].is_number_integer())
+        cert_html << " Result: iteration " << session["best_iteration"].get<int>() << " (model.ply).";
+      cert_html << "</p><div class=\"scroll\"><table><tr><th>region</th><th>share</th><th>centroid</th>"
+                   "<th>mean f</th><th>reason</th></tr>";
+      for (const auto& r : cert.value("regions", json::array())) {
+        const auto c = r.value("centroid", json::array());
+        cert_html << "<tr><td>" << r.value("id", 0) << "</td><td>"
+                  << fmt::format("{:.2f} %", 100.0 * r.value("share", 0.0)) << "</td><td>"
+                  << (c.size() == 3 ? fmt::format("{:.3f}, {:.3f}, {:.3f}", c[0].get<double>(), c[1].get<double>(),
+                                                  c[2].get<double>())
+                                    : std::string("–"))
+                  << "</td><td>" << fmt::format("{:.3f}", r.value("mean_f", 0.0)) << "</td><td>"
+                  << escape_html(r.value("reason", std::string())) << "</td></tr>";
+      }
+      cert_html << "</table></div>";
+    } else {
+      cert_html << "<p>No certificate (a session written before it).</p>";
+    }
+    cert_html << "</section>\n";
+  }
+
   std::ostringstream html;
   html
       << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>autoscan report — "
       << escape_html(title) << "</title><style>" << kStyle << "</style></head><body>\n"
       << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size() << " iterations · planner "
       << escape_html(session.value("planner", std::string("poisson"))) << " · stop: " << escape_html(stop)
-      << "</p></header>\n<main><section>\n"
+      << "</p></header>\n"
+      << cert_html.str() << "<main><section>\n"
       << "<div class=\"controls\"><label>iteration <input type=\"range\" id=\"iteration\" min=\"0\" step=\"1\"></label>"
       << "<span id=\"iteration-label\"></span></div>\n"
       << "<div class=\"controls\"><label>colour mesh by <select id=\"color-by\"><option value=\"f\">f (confidence)"
@@ -339,7 +381,8 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
          "</span>high · <span style=\"background:#d91a1a\"></span>new points · <span style=\"background:#1a7f37\">"
          "</span>views · <span style=\"background:#d97706\"></span>path</span></div>\n"
       << "<div id=\"viewport\"></div>\n</section><aside><h3>Viewing vector field (slice)</h3>"
-      << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3>" << table.str()
+      << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3><div class=\"scroll\">"
+      << table.str() << "</div>"
       << "</aside></main>\n<section style=\"padding:0 12px 12px\"><h3>Plots</h3><div id=\"plots\"></div></section>\n"
       << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(manifest.dump()) << "</script>\n";
   for (const auto& [id, b64] : bufs.items)

@@ -42,6 +42,71 @@ enum class ColorWeighting { quality, average };
 inline constexpr schema::EnumName<ColorWeighting> kColorWeightingNames[] = {{ColorWeighting::quality, "quality"},
                                                                             {ColorWeighting::average, "average"}};
 constexpr std::span<const schema::EnumName<ColorWeighting>> enum_names(ColorWeighting) { return kColorWeightingNames; }
+/// Which rule ends the loop (docs/stop-rule.md).
+///  * remaining: the stop rule on what is left to do (issue 22). The iso-surface's low-confidence
+///    regions are tracked from iteration to iteration; a region that the views of a round looked at
+///    without raising its confidence becomes "unreachable" or "too noisy" and no longer draws views.
+///    Stop when the low-confidence area that views can still improve is below
+///    StopOptions::remaining_share of the surface ("complete"), when StopOptions::stalled_rounds
+///    rounds in a row improved no region they looked at ("no_improvement"), or at once when the
+///    mean confidence falls below the best iteration's by more than StopOptions::quality_tolerance
+///    ("quality_fell"; the best iteration's model is the result).
+///  * paper: §5.3, stop "once the overall confidence does not improve any more":
+///    |mean f_k − mean f_{k−1}| < SessionOptions::stop_threshold (0.005), and, when
+///    stop_when_confidence_falls is set, when it falls by at least that much.
+enum class StopRule { remaining, paper };
+inline constexpr schema::EnumName<StopRule> kStopRuleNames[] = {{StopRule::remaining, "remaining"},
+                                                                {StopRule::paper, "paper"}};
+constexpr std::span<const schema::EnumName<StopRule>> enum_names(StopRule) { return kStopRuleNames; }
+
+/// The stop rule and the quality certificate (session/certificate.hpp, docs/stop-rule.md).
+struct StopOptions {
+  StopRule rule = StopRule::remaining;  ///< "remaining" (default) or "paper" (§5.3, stop_threshold)
+  /// An iso-surface triangle is of low confidence when the mean f (Eq. 3) of its corners is below
+  /// min(confidence, confidence_ratio · p75), p75 being the 75th percentile of f over the surface.
+  /// The scanner's noise bounds f_s (Eq. 2) everywhere: on armadillo at noise 0.5 fully covered
+  /// (scannable coverage 1.000) the median f is 0.46 and 67 % of the surface is below 0.5, while
+  /// the holes of the blind scan are below 0.1. The percentile measures what this scanner reaches.
+  double confidence = 0.5;
+  double confidence_ratio = 0.5;  ///< see `confidence`
+  /// "complete": the low-confidence area that views can still improve is below this share of the
+  /// iso-surface's area.
+  double remaining_share = 0.01;
+  /// Low-confidence regions (connected triangles) smaller than this share of the surface are
+  /// "scattered": counted in the certificate's figures, not tracked, and they keep no scan going.
+  double min_region_share = 0.001;
+  /// A region improved when its area-weighted mean f rose by at least region_gain, or its area
+  /// shrank by at least region_shrink (a share of its area), since the previous iteration.
+  double region_gain = 0.02;
+  double region_shrink = 0.2;
+  /// A region whose views did not improve it this many rounds in a row (or that the planner passed
+  /// over this many rounds) is settled: unreachable or too noisy, it draws no more views. And
+  /// "no_improvement": this many rounds in a row whose views looked at low-confidence regions and
+  /// improved none of them. With 1, the demo stopped at 94.8 % of its scannable surface: a hole that
+  /// one view of ten had looked at was given up after that one round.
+  int stalled_rounds = 2;
+  /// "quality_fell": the mean confidence is below the best iteration's by more than this (the noise
+  /// of the measure: successive iterations of the demo differ by up to 0.006 while its coverage rises).
+  double quality_tolerance = 0.02;
+  /// Drivers that know the truth (the simulation, clearly labelled "quality_fell_truth"): stop when
+  /// the model's F-score is below the best iteration's by more than this (the sampling noise of the
+  /// F-score at 60k samples is about 0.003). 0 disables it.
+  double truth_fscore_tolerance = 0.01;
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("rule", rule);
+    v("confidence", confidence, schema::closed(0, 1));
+    v("confidence_ratio", confidence_ratio, schema::closed(0, 1));
+    v("remaining_share", remaining_share, schema::closed(0, 1));
+    v("min_region_share", min_region_share, schema::closed(0, 1));
+    v("region_gain", region_gain, schema::at_least(0));
+    v("region_shrink", region_shrink, schema::closed(0, 1));
+    v("stalled_rounds", stalled_rounds, schema::at_least(1));
+    v("quality_tolerance", quality_tolerance, schema::at_least(0));
+    v("truth_fscore_tolerance", truth_fscore_tolerance, schema::closed(0, 1));
+  }
+};
 
 struct SessionOptions {
   /// Sessions accumulate millions of raw points; each reconstruction consolidates a voxel-thinned
@@ -99,7 +164,9 @@ struct SessionOptions {
   /// sample spacings) is not inserted: a region already measured better is neither displaced nor
   /// blurred by a worse measurement. 0 = off (the default, as quality_weights; 2 is the suggested value).
   double quality_insertion_ratio = 0.0;
-  double stop_threshold = 0.005;  ///< §5.3: stop when |mean f_k − mean f_{k−1}| < this (paper: 0.005)
+  StopOptions stop;  ///< which stop rule, and the quality certificate's thresholds (docs/stop-rule.md)
+  double stop_threshold =
+      0.005;  ///< §5.3 (stop.rule "paper"): stop when |mean f_k − mean f_{k−1}| < this (paper: 0.005)
   /// ... and (when true) also when the mean confidence falls by at least stop_threshold. Off by
   /// default: small falls are common while the model grows (the demo fell 0.888 → 0.882 between two
   /// iterations and then rose again), and stopping there left its coverage at 0.949. The session's
@@ -135,6 +202,7 @@ struct SessionOptions {
     v("rho", rho, schema::at_least(0));
     v("quality_weights", quality_weights);
     v("quality_insertion_ratio", quality_insertion_ratio, schema::at_least(1).or_zero());
+    v("stop", stop);
     v("stop_threshold", stop_threshold, schema::at_least(0));
     v("stop_when_confidence_falls", stop_when_confidence_falls);
     v("max_iterations", max_iterations, schema::at_least(1));

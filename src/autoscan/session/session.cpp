@@ -238,6 +238,26 @@ bool confidence_converged(double previous_mean_f, double mean_f, double threshol
   return std::abs(mean_f - previous_mean_f) < threshold;
 }
 
+int best_by_confidence(const std::vector<double>& mean_f, double tolerance) {
+  if (mean_f.empty()) return -1;
+  const double top = *std::max_element(mean_f.begin(), mean_f.end());
+  for (std::size_t i = mean_f.size(); i-- > 0;)
+    if (mean_f[i] >= top - tolerance) return static_cast<int>(i);
+  return -1;
+}
+
+std::string remaining_rule(const Certificate& certificate, double mean_f, std::optional<double> best_previous_mean_f,
+                           const StopOptions& options) {
+  // Quality fell: worse than the best iteration beyond the noise of the measure. Stop at once; the
+  // best iteration's model is the result.
+  if (best_previous_mean_f && *best_previous_mean_f - mean_f > options.quality_tolerance) return "quality_fell";
+  // Nothing left that views can improve (a small share of the surface).
+  if (certificate.done) return "complete";
+  // The last rounds' views raised the confidence nowhere they looked.
+  if (certificate.stalled_rounds >= options.stalled_rounds) return "no_improvement";
+  return "";
+}
+
 json to_json(const ScanRecord& r) {
   json j = {{"id", r.id},
             {"file", "scans/" + scan_stem(r.id) + ".ply"},
@@ -277,6 +297,7 @@ json to_json(const IterationRecord& r) {
           {"planner", r.planner_diagnostics},
           {"registration", r.registration},
           {"truth", r.truth},
+          {"certificate", r.certificate},
           {"stopped", r.stopped},
           {"stop_reason", r.stop_reason.empty() ? json(nullptr) : json(r.stop_reason)}};
 }
@@ -294,6 +315,8 @@ json to_json(const SessionStatus& s) {
           {"stopped", s.stopped},
           {"stop_reason", s.stop_reason.empty() ? json(nullptr) : json(s.stop_reason)},
           {"last_mean_f", s.last_mean_f ? json(*s.last_mean_f) : json(nullptr)},
+          {"best_iteration", s.best_iteration},
+          {"certificate", s.certificate},
           {"current_pose", pose_or_null(s.current_pose)}};
 }
 
@@ -379,6 +402,10 @@ IterationRecord iteration_from_json(const json& j, const std::string& what, int 
   r.planner_diagnostics = member(j, "planner", what);
   if (j.contains("registration")) r.registration = object_or_null(j.at("registration"), what + ".registration");
   r.truth = object_or_null(member(j, "truth", what), what + ".truth");
+  if (j.contains("certificate") && !object_or_null(j.at("certificate"), what + ".certificate").is_null()) {
+    certificate_from_json(j.at("certificate"), what + ".certificate");  // validated; kept as written
+    r.certificate = j.at("certificate");
+  }
   r.stopped = boolean(member(j, "stopped", what), what + ".stopped");
   r.stop_reason = string_or_null(member(j, "stop_reason", what), what + ".stop_reason");
   return r;
@@ -422,6 +449,9 @@ SessionFile parse_session_json(std::string_view text, const std::string& where) 
       out.iterations.push_back(
           iteration_from_json(iters_j[i], fmt::format("{}: iterations[{}]", where, i), static_cast<int>(i)));
     const int n_iterations = static_cast<int>(out.iterations.size());
+    if (j.contains("best_iteration"))
+      out.best_iteration =
+          static_cast<int>(integer_in(j.at("best_iteration"), where + ": best_iteration", -1, n_iterations - 1));
     for (std::size_t i = 0; i < scans_j.size(); ++i)
       records.push_back(
           scan_from_json(scans_j[i], fmt::format("{}: scans[{}]", where, i), static_cast<int>(i), n_iterations));
@@ -483,6 +513,8 @@ struct Session::Impl {
   int views_planned = 0;
   bool stopped = false;
   std::string stop_reason;
+  int best_iteration = -1;  // the session's result (best_iteration())
+  bool best_fixed = false;  // set by finish(): not recomputed
 
   // The registration target and Eq. 6's confidence, from the last iteration (reloaded on open).
   PointCloud target;                  // consolidated points with normals
@@ -537,6 +569,7 @@ struct Session::Impl {
             {"model_points", model.size()},
             {"scans", scans_j},
             {"iterations", iters_j},
+            {"best_iteration", best_iteration},
             {"stopped", stopped},
             {"stop_reason", stop_reason.empty() ? json(nullptr) : json(stop_reason)}};
   }
@@ -556,6 +589,24 @@ struct Session::Impl {
   bool fusion_on() const { return options.quality_weights || options.quality_insertion_ratio > 0.0; }
 
   bool has_model() const { return !iterations.empty() && !target.empty(); }
+
+  void update_best() {
+    if (best_fixed) return;
+    std::vector<double> f;
+    for (const auto& it : iterations) f.push_back(it.mean_f);
+    best_iteration = best_by_confidence(f, options.stop.quality_tolerance);
+  }
+
+  // The result: the best iteration's mesh as model.ply (atomically), when the session stops.
+  void write_result_model() const {
+    if (best_iteration < 0) return;
+    const fs::path src = dir / "iterations" / iter_name(best_iteration) / "mesh.ply";
+    std::error_code ec;
+    if (!fs::exists(src, ec)) return;
+    io::WriteOptions exact;
+    exact.double_coordinates = true;
+    io::write_mesh(dir / "model.ply", io::read_mesh(src), exact);
+  }
 
   // Sets the registration target and Eq. 6's look-up from a reconstruction.
   void set_target(const PointCloud& consolidated, const PointCloud& iso) {
@@ -809,6 +860,8 @@ Session Session::open(const fs::path& dir) {
   impl->stopped = stored.stopped;
   impl->stop_reason = std::move(stored.stop_reason);
   impl->iterations = std::move(stored.iterations);
+  impl->best_iteration = stored.best_iteration;
+  if (impl->best_iteration < 0) impl->update_best();  // a session written before the field
   std::vector<ScanRecord> records = std::move(stored.scans);
   impl->make_planner_object();
   // What the planner fixed at an earlier plan() (an occupancy grid's frame), before the replay below.
@@ -1020,15 +1073,30 @@ NextViews Session::next_views(const Pose& current) {
   it.mean_f_s = rec->mean_f_s;
   if (k > 0) it.delta_mean_f = rec->mean_f - m.iterations.back().mean_f;
 
-  // The stop rule (§5.3), then the budgets.
-  if (k > 0 && confidence_converged(m.iterations.back().mean_f, rec->mean_f, m.options.stop_threshold))
-    it.stop_reason = "converged";
-  else if (k > 0 && m.options.stop_when_confidence_falls &&
-           m.iterations.back().mean_f - rec->mean_f >= m.options.stop_threshold)
-    it.stop_reason = "confidence_fell";
-  else if (k + 1 >= m.options.max_iterations)
+  // The quality certificate (docs/stop-rule.md), tracked from the previous iteration's.
+  Stopwatch cclock;
+  std::optional<Certificate> previous;
+  if (k > 0 && m.iterations.back().certificate.is_object())
+    previous = certificate_from_json(m.iterations.back().certificate, "previous certificate");
+  Certificate cert = compute_certificate(k, rec->mesh, rec->iso_points, rec->consolidated, m.scanner, m.options.stop,
+                                         previous ? &*previous : nullptr);
+  it.seconds["certificate"] = cclock.seconds();
+
+  // The stop rule (options.stop.rule), then the budgets.
+  if (m.options.stop.rule == StopRule::paper) {  // §5.3
+    if (k > 0 && confidence_converged(m.iterations.back().mean_f, rec->mean_f, m.options.stop_threshold))
+      it.stop_reason = "converged";
+    else if (k > 0 && m.options.stop_when_confidence_falls &&
+             m.iterations.back().mean_f - rec->mean_f >= m.options.stop_threshold)
+      it.stop_reason = "confidence_fell";
+  } else {
+    std::optional<double> best_before;
+    for (const auto& prev : m.iterations) best_before = std::max(best_before.value_or(prev.mean_f), prev.mean_f);
+    it.stop_reason = remaining_rule(cert, rec->mean_f, best_before, m.options.stop);
+  }
+  if (it.stop_reason.empty() && k + 1 >= m.options.max_iterations)
     it.stop_reason = "max_iterations";
-  else if (m.views_planned >= m.options.max_views)
+  else if (it.stop_reason.empty() && m.views_planned >= m.options.max_views)
     it.stop_reason = "max_views";
 
   planners::PlanOutput plan;
@@ -1042,6 +1110,12 @@ NextViews Session::next_views(const Pose& current) {
     state.reference_gradient = rec->reference_gradient;
     state.mesh = rec->mesh;
     state.iso_points = rec->iso_points;
+    // Regions that views looked at without improving them draw no more views (docs/stop-rule.md).
+    if (m.options.stop.rule == StopRule::remaining) {
+      const std::size_t masked = mask_settled_regions(cert, state.iso_points);
+      if (masked > 0)
+        log::info("iteration {}: {} iso-points in unreachable or too noisy regions draw no views", k, masked);
+    }
     state.mean_f = rec->mean_f;
     state.scanner = m.scanner;
     state.rig = m.rig;
@@ -1055,12 +1129,21 @@ NextViews Session::next_views(const Pose& current) {
       plan.path_length = planners::path_length(m.rig, current, plan.views);
     }
     it.planner_diagnostics = plan.diagnostics;
+    std::vector<Vec3> targets;
+    for (const auto& v : plan.views) targets.push_back(v.target);
+    count_views_aimed(cert, targets);
     it.seconds["plan"] = clock.seconds();
     if (plan.views.empty()) it.stop_reason = "no_views";
   }
   it.views = static_cast<int>(plan.views.size());
   it.path_length = plan.path_length;
   it.stopped = !it.stop_reason.empty();
+  it.certificate = to_json(cert);
+  log::info(
+      "iteration {}: {:.1f} % of the surface above confidence {:.3f}; {:.1f} % left that views can improve, "
+      "{:.1f} % unreachable, {:.1f} % too noisy ({} regions){}",
+      k, 100.0 * cert.share_confident, cert.threshold, 100.0 * cert.share_improvable, 100.0 * cert.share_unreachable,
+      100.0 * cert.share_too_noisy, cert.regions.size(), it.stopped ? "; stop: " + it.stop_reason : std::string());
 
   // Artefacts first (iterations/iter_KKK/), session.json last: an interrupted iteration is simply
   // recomputed after open().
@@ -1107,8 +1190,10 @@ NextViews Session::next_views(const Pose& current) {
   m.stopped = it.stopped;
   m.stop_reason = it.stop_reason;
   m.iterations.push_back(it);
+  m.update_best();
   m.model_size_at_last_iteration = m.model.size();
   m.set_target(rec->consolidated, rec->iso_points);
+  if (m.stopped) m.write_result_model();
   m.persist();
 
   ans.views = std::move(plan.views);
@@ -1120,6 +1205,26 @@ NextViews Session::next_views(const Pose& current) {
   ans.reconstruction = std::move(rec);
   return ans;
 }
+
+void Session::finish(const std::string& reason, int best) {
+  auto& m = *impl_;
+  AUTOSCAN_REQUIRE(!reason.empty(), "finish: no reason given");
+  AUTOSCAN_REQUIRE(!m.iterations.empty(), "finish: the session has no iteration yet");
+  AUTOSCAN_REQUIRE(best >= 0 && best < static_cast<int>(m.iterations.size()),
+                   "finish: no iteration {} (the session has {})", best, m.iterations.size());
+  if (m.stopped) return;
+  auto& last = m.iterations.back();
+  last.stopped = true;
+  last.stop_reason = reason;
+  m.stopped = true;
+  m.stop_reason = reason;
+  m.best_iteration = best;
+  m.best_fixed = true;
+  m.write_result_model();
+  m.persist();
+}
+
+int Session::best_iteration() const { return impl_->best_iteration; }
 
 void Session::attach_truth(int index, const json& truth) {
   auto& m = *impl_;
@@ -1141,6 +1246,8 @@ SessionStatus Session::status() const {
   s.stopped = m.stopped;
   s.stop_reason = m.stop_reason;
   if (!m.iterations.empty()) s.last_mean_f = m.iterations.back().mean_f;
+  s.best_iteration = m.best_iteration;
+  if (!m.iterations.empty()) s.certificate = m.iterations.back().certificate;
   s.current_pose = m.current_pose;
   s.pending_scans = static_cast<int>(m.scans.size()) - m.pending_from();
   s.excluded_scans =

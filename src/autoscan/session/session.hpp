@@ -5,7 +5,7 @@
 //   for (scan, pose : blind scans) s.add_scan(scan, pose);  // world frame of the reported pose
 //   while (true) {
 //     auto step = s.next_views(current_pose);              // consolidate → Poisson → confidence → plan
-//     if (step.stopped) break;                             // |Δ mean f| < 0.005, or a budget spent
+//     if (step.stopped) break;                             // the stop rule fired, or a budget was spent
 //     for (view : step.views) s.add_scan(robot.scan(view), robot.reported_pose());
 //   }
 //
@@ -37,6 +37,7 @@
 #include "autoscan/nbv/nbv.hpp"
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/registration/icp.hpp"
+#include "autoscan/session/certificate.hpp"
 #include "autoscan/session/options.hpp"
 #include "autoscan/session/reconstruct.hpp"
 
@@ -86,8 +87,14 @@ struct IterationRecord {
   /// The global registration of this iteration (registration::to_json(MultiwayResult)), or null.
   nlohmann::json registration;
   nlohmann::json truth;  ///< null, or what a driver that knows the truth attached
+  /// The quality certificate of this iteration's model (to_json(Certificate)); null in sessions
+  /// written before it (docs/stop-rule.md).
+  nlohmann::json certificate;
   bool stopped = false;
-  std::string stop_reason;  ///< "", "converged", "confidence_fell", "max_iterations", "max_views", "no_views"
+  /// "", "complete", "no_improvement", "quality_fell" (the rule "remaining"), "converged",
+  /// "confidence_fell" (the paper's rule), "quality_fell_truth" (a driver that knows the truth, see
+  /// Session::finish), "max_iterations", "max_views", "no_views"
+  std::string stop_reason;
 };
 
 struct NextViews {
@@ -112,6 +119,10 @@ struct SessionStatus {
   bool stopped = false;
   std::string stop_reason;
   std::optional<double> last_mean_f;
+  /// The session's result: the best iteration's model (Session::best_iteration), -1 before the first.
+  int best_iteration = -1;
+  /// The last iteration's quality certificate (null when none).
+  nlohmann::json certificate;
   std::optional<Pose> current_pose;
   int pending_scans = 0;   ///< scans added since the last iteration
   int excluded_scans = 0;  ///< scans kept out of the model (ScanRecord::excluded)
@@ -132,6 +143,7 @@ struct SessionFile {
   bool stopped = false;
   std::string stop_reason;
   std::vector<IterationRecord> iterations;
+  int best_iteration = -1;        ///< absent in older files: computed from the iterations
   std::vector<ScanRecord> scans;  ///< every scan an iteration lists exists, in order
   /// What the planner fixed at an earlier plan() (null if none); checked by the planner's
   /// restore_state when the session is opened.
@@ -173,13 +185,26 @@ class Session {
   ScanRecord add_scan(const PointCloud& scan, const Pose& reported_pose);
 
   /// Runs one iteration: consolidate → Poisson → confidence → planner (skipped when the stop rule
-  /// fires), writes iterations/iter_KKK/ and appends the iteration to session.json. Stop rule: the
-  /// mean confidence changed by less than stop_threshold since the previous iteration, or the
-  /// iteration budget is spent (this was the last iteration), or the view budget is spent, or the
-  /// planner found nothing worth scanning. Once stopped, later calls return the stopped answer
+  /// fires), writes iterations/iter_KKK/ and appends the iteration to session.json with its quality
+  /// certificate. Stop rule (options.stop.rule, docs/stop-rule.md): "remaining" (remaining_rule) or
+  /// the paper's (the mean confidence changed by less than stop_threshold since the previous
+  /// iteration); then the iteration budget is spent (this was the last iteration), or the view
+  /// budget is spent, or the planner found nothing worth scanning. On stopping, the best
+  /// iteration's mesh is written as model.ply. Once stopped, later calls return the stopped answer
   /// without recomputing. Throws InputError when no scan was added yet.
   NextViews next_views(const Pose& current);
   NextViews next_views();  ///< from the last known pose (the last scan's registered pose)
+
+  /// Ends the session after its last iteration for a reason its driver knows (a simulation whose
+  /// error against the truth grew: "quality_fell_truth"), with `best` (an iteration index) as its
+  /// result. Marks the last iteration stopped, writes model.ply and persists. No-op when stopped.
+  void finish(const std::string& reason, int best);
+
+  /// The session's result: the latest iteration whose mean confidence is within
+  /// stop.quality_tolerance of the highest so far (an iteration after a fall is not the result), or
+  /// the one finish() named; -1 before the first iteration. When the session stops, its mesh is
+  /// written as model.ply in the session directory.
+  int best_iteration() const;
 
   /// Attaches figures a driver that knows the truth computed (accuracy, completeness, coverage...)
   /// to iteration `index` (its "truth" field), and persists session.json.
@@ -217,5 +242,15 @@ std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, cons
 
 /// The stop rule (§5.3) on its own: true when |mean_f − previous_mean_f| < threshold.
 bool confidence_converged(double previous_mean_f, double mean_f, double threshold = 0.005);
+
+/// The best iteration of a sequence of mean confidences: the latest within `tolerance` of the
+/// highest (-1 for none).
+int best_by_confidence(const std::vector<double>& mean_f, double tolerance);
+
+/// The rule "remaining" on its own (SessionOptions::stop, docs/stop-rule.md): "quality_fell",
+/// "complete", "no_improvement" or "" (continue), from the certificate of this iteration, its mean
+/// f and the best mean f before it (none for the first iteration).
+std::string remaining_rule(const Certificate& certificate, double mean_f, std::optional<double> best_previous_mean_f,
+                           const StopOptions& options);
 
 }  // namespace autoscan::session

@@ -80,6 +80,7 @@ json SimulateResult::to_json() const {
           {"best_iteration", best_iteration},
           {"best_mean_f", best_mean_f},
           {"best_truth", best_truth},
+          {"certificate", certificate},
           {"seconds", seconds}};
 }
 
@@ -222,11 +223,10 @@ class Loop {
       r.stop_reason = last.stop_reason;
       r.mean_f = last.mean_f;
       r.truth = last.truth;
-      // The session's best model: the iteration with the highest mean confidence (the loop may stop
-      // because the confidence fell, and then the previous model is the better one).
-      std::size_t best = 0;
-      for (std::size_t i = 1; i < s.iterations().size(); ++i)
-        if (s.iterations()[i].mean_f > s.iterations()[best].mean_f) best = i;
+      r.certificate = last.certificate;
+      // The session's result (Session::best_iteration): the latest iteration within the noise of
+      // the best one's confidence, or the one before the error against the truth grew.
+      const auto best = static_cast<std::size_t>(std::max(0, s.best_iteration()));
       r.best_iteration = s.iterations()[best].index;
       r.best_mean_f = s.iterations()[best].mean_f;
       r.best_truth = s.iterations()[best].truth;
@@ -494,6 +494,36 @@ class Loop {
     write_text_atomic(dir_ / kCheckpointFile, checkpoints_.dump(1));
   }
 
+  // "Quality fell" against the truth (simulation only, labelled "quality_fell_truth"; the rule
+  // "remaining", docs/stop-rule.md): the last iteration's F-score is below the best earlier one's
+  // by more than stop.truth_fscore_tolerance. The session ends there; its result is that best
+  // iteration's model.
+  void check_truth_quality(session::Session& s) {
+    const auto& so = opts_.session.stop;
+    if (!opts_.evaluate || so.rule != session::StopRule::remaining || so.truth_fscore_tolerance <= 0.0) return;
+    const auto& its = s.iterations();
+    if (its.size() < 2 || its.back().stopped || !its.back().truth.is_object()) return;
+    int best = -1;
+    double best_f = -1.0;
+    for (std::size_t i = 0; i + 1 < its.size(); ++i) {
+      if (!its[i].truth.is_object() || !its[i].truth.contains("fscore")) continue;
+      const double fs = its[i].truth["fscore"].get<double>();
+      if (fs >= best_f) {
+        best_f = fs;
+        best = static_cast<int>(i);
+      }
+    }
+    if (best < 0 || !its.back().truth.contains("fscore")) return;
+    const double now = its.back().truth["fscore"].get<double>();
+    if (best_f - now > so.truth_fscore_tolerance) {
+      log::info(
+          "simulate: the F-score against the truth fell from {:.4f} (iteration {}) to {:.4f}: stop, the result "
+          "is iteration {} (quality_fell_truth)",
+          best_f, best, now, best);
+      s.finish("quality_fell_truth", best);
+    }
+  }
+
   void nbv_phase(session::Session& s) {
     const int max_views = opts_.session.max_views;
     while (true) {
@@ -503,6 +533,7 @@ class Loop {
         continue;
       }
       attach_truth_if_missing(s, nullptr);
+      check_truth_quality(s);
       const auto& last = s.iterations().back();
       if (last.stopped) return;
       const int k = last.index;

@@ -95,9 +95,10 @@ struct SimulateResult {
   std::string stop_reason;
   double mean_f = 0.0;     ///< last iteration's global confidence
   nlohmann::json truth;    ///< last iteration's ground-truth figures (null when evaluate is off)
-  int best_iteration = 0;  ///< the iteration with the highest mean confidence (the session's best model)
+  int best_iteration = 0;  ///< the session's result (Session::best_iteration; its mesh is model.ply)
   double best_mean_f = 0.0;
-  nlohmann::json best_truth;                             ///< its ground-truth figures
+  nlohmann::json best_truth;   ///< its ground-truth figures
+  nlohmann::json certificate;  ///< the last iteration's quality certificate (docs/stop-rule.md)
   nlohmann::json checkpoints = nlohmann::json::array();  ///< [{views, coverage, fscore, ...}]
   /// Registration against the truth (registration.json per scan): mean distance of the registered
   /// scans' points from where they belong, with the reported pose (before) and after the session's

@@ -1,0 +1,391 @@
+#include "autoscan/session/certificate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/core/log.hpp"
+#include "autoscan/spatial/kdtree.hpp"
+
+namespace autoscan::session {
+
+using nlohmann::json;
+
+namespace {
+
+int find_root(std::vector<int>& parent, int x) {
+  while (parent[static_cast<std::size_t>(x)] != x) {
+    parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+    x = parent[static_cast<std::size_t>(x)];
+  }
+  return x;
+}
+
+bool settled(const CertificateRegion& r) { return r.reason == "unreachable" || r.reason == "too_noisy"; }
+
+double number(const json& j, const char* key, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object() && j.contains(key) && j.at(key).is_number() && std::isfinite(j.at(key).get<double>()),
+                   "{}.{}: expected a finite number", what, key);
+  return j.at(key).get<double>();
+}
+
+int integer(const json& j, const char* key, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object() && j.contains(key) && j.at(key).is_number_integer(), "{}.{}: expected an integer",
+                   what, key);
+  return j.at(key).get<int>();
+}
+
+}  // namespace
+
+json to_json(const Certificate& c) {
+  json regions = json::array();
+  for (const auto& r : c.regions)
+    regions.push_back({{"id", r.id},
+                       {"area", r.area},
+                       {"share", r.share},
+                       {"centroid", {r.centroid.x(), r.centroid.y(), r.centroid.z()}},
+                       {"radius", r.radius},
+                       {"mean_f", r.mean_f},
+                       {"has_data", r.has_data},
+                       {"reason", r.reason},
+                       {"views_aimed", r.views_aimed},
+                       {"stalls", r.stalls},
+                       {"ignored", r.ignored},
+                       {"previous", r.previous},
+                       {"expected_accuracy", r.expected_accuracy}});
+  return {{"iteration", c.iteration},
+          {"threshold", c.threshold},
+          {"surface_area", c.surface_area},
+          {"share_confident", c.share_confident},
+          {"share_scattered", c.share_scattered},
+          {"share_improvable", c.share_improvable},
+          {"share_unreachable", c.share_unreachable},
+          {"share_too_noisy", c.share_too_noisy},
+          {"regions_improved", c.regions_improved},
+          {"regions_aimed_before", c.regions_aimed_before},
+          {"stalled_rounds", c.stalled_rounds},
+          {"views_planned", c.views_planned},
+          {"done", c.done},
+          {"expected_accuracy", c.expected_accuracy},
+          {"regions", regions}};
+}
+
+Certificate certificate_from_json(const json& j, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object", what);
+  Certificate c;
+  c.iteration = integer(j, "iteration", what);
+  c.threshold = number(j, "threshold", what);
+  c.surface_area = number(j, "surface_area", what);
+  c.share_confident = number(j, "share_confident", what);
+  c.share_scattered = number(j, "share_scattered", what);
+  c.share_improvable = number(j, "share_improvable", what);
+  c.share_unreachable = number(j, "share_unreachable", what);
+  c.share_too_noisy = number(j, "share_too_noisy", what);
+  c.regions_improved = integer(j, "regions_improved", what);
+  c.regions_aimed_before = integer(j, "regions_aimed_before", what);
+  c.stalled_rounds = integer(j, "stalled_rounds", what);
+  c.views_planned = integer(j, "views_planned", what);
+  AUTOSCAN_REQUIRE(j.contains("done") && j.at("done").is_boolean(), "{}.done: expected true or false", what);
+  c.done = j.at("done").get<bool>();
+  c.expected_accuracy = number(j, "expected_accuracy", what);
+  AUTOSCAN_REQUIRE(j.contains("regions") && j.at("regions").is_array(), "{}.regions: expected an array", what);
+  for (std::size_t i = 0; i < j.at("regions").size(); ++i) {
+    const json& e = j.at("regions")[i];
+    const std::string w = what + ".regions[" + std::to_string(i) + "]";
+    CertificateRegion r;
+    r.id = integer(e, "id", w);
+    r.area = number(e, "area", w);
+    r.share = number(e, "share", w);
+    AUTOSCAN_REQUIRE(e.contains("centroid") && e.at("centroid").is_array() && e.at("centroid").size() == 3 &&
+                         std::all_of(e.at("centroid").begin(), e.at("centroid").end(),
+                                     [](const json& x) { return x.is_number() && std::isfinite(x.get<double>()); }),
+                     "{}.centroid: expected three finite numbers", w);
+    r.centroid =
+        Vec3(e.at("centroid")[0].get<double>(), e.at("centroid")[1].get<double>(), e.at("centroid")[2].get<double>());
+    r.radius = number(e, "radius", w);
+    r.mean_f = number(e, "mean_f", w);
+    AUTOSCAN_REQUIRE(e.contains("has_data") && e.at("has_data").is_boolean(), "{}.has_data: expected true or false", w);
+    r.has_data = e.at("has_data").get<bool>();
+    AUTOSCAN_REQUIRE(e.contains("reason") && e.at("reason").is_string(), "{}.reason: expected a string", w);
+    r.reason = e.at("reason").get<std::string>();
+    r.views_aimed = integer(e, "views_aimed", w);
+    r.stalls = integer(e, "stalls", w);
+    r.ignored = integer(e, "ignored", w);
+    r.previous = integer(e, "previous", w);
+    r.expected_accuracy = number(e, "expected_accuracy", w);
+    c.regions.push_back(std::move(r));
+  }
+  return c;
+}
+
+Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
+                                const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
+                                const Certificate* previous) {
+  Certificate c;
+  c.iteration = iteration;
+  // The scanner's expected accuracy: its noise model's σ at the optimal distance d_o (§5.1), normal
+  // incidence.
+  c.expected_accuracy = scanner.noise.magnitude * scanner.noise.depth_sigma *
+                        scanner.relative_depth_sigma(scanner.optimal_distance(), 1.0);
+  const std::size_t nv = mesh.vertices.size();
+  if (mesh.faces.empty() || nv == 0) {
+    c.threshold = options.confidence;
+    return c;
+  }
+
+  // f per vertex: the mesh's own column, or the nearest iso-point's.
+  std::vector<double> f(nv, 0.0);
+  if (const auto* mf = mesh.vertex_scalars.find("f"); mf && mf->size() == nv) {
+    f = *mf;
+  } else if (const auto* isof = iso_points.scalars.find("f"); isof && !iso_points.empty()) {
+    const spatial::KdTree tree(std::span<const Vec3>(iso_points.positions));
+    std::vector<std::size_t> idx(nv);
+    tree.nearest(mesh.vertices, idx, {});
+    for (std::size_t i = 0; i < nv; ++i) f[i] = (*isof)[idx[i]];
+  }
+  for (double& x : f) x = std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : 0.0;
+
+  // The threshold: min(confidence, confidence_ratio · p75 of f).
+  {
+    std::vector<double> sorted = f;
+    const auto q = static_cast<std::ptrdiff_t>(0.75 * static_cast<double>(sorted.size() - 1));
+    std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
+    const double p75 = sorted[static_cast<std::size_t>(q)];
+    c.threshold = options.confidence_ratio > 0.0 ? std::min(options.confidence, options.confidence_ratio * p75)
+                                                 : options.confidence;
+  }
+
+  // Low triangles, joined through shared vertices.
+  const std::size_t nf = mesh.faces.size();
+  std::vector<double> area(nf), face_f(nf);
+  std::vector<char> low(nf, 0);
+  std::vector<int> parent(nv);
+  std::iota(parent.begin(), parent.end(), 0);
+  double edge_sum = 0.0;
+  for (std::size_t t = 0; t < nf; ++t) {
+    const auto& tri = mesh.faces[t];
+    const Vec3& a = mesh.vertices[static_cast<std::size_t>(tri[0])];
+    const Vec3& b = mesh.vertices[static_cast<std::size_t>(tri[1])];
+    const Vec3& d = mesh.vertices[static_cast<std::size_t>(tri[2])];
+    area[t] = 0.5 * (b - a).cross(d - a).norm();
+    edge_sum += (b - a).norm() + (d - b).norm() + (a - d).norm();
+    face_f[t] = (f[static_cast<std::size_t>(tri[0])] + f[static_cast<std::size_t>(tri[1])] +
+                 f[static_cast<std::size_t>(tri[2])]) /
+                3.0;
+    c.surface_area += area[t];
+    if (face_f[t] < c.threshold) {
+      low[t] = 1;
+      const int r0 = find_root(parent, tri[0]);
+      for (int k = 1; k < 3; ++k) {
+        const int rk = find_root(parent, tri[static_cast<std::size_t>(k)]);
+        if (rk != r0) parent[static_cast<std::size_t>(rk)] = r0;
+      }
+    }
+  }
+  c.edge_length = edge_sum / (3.0 * static_cast<double>(nf));
+  if (c.surface_area <= 0.0) return c;
+
+  struct Acc {
+    double area = 0, fa = 0;
+    Vec3 centroid = Vec3::Zero();
+    std::vector<int> vertices;
+  };
+  std::vector<int> slot(nv, -1);
+  std::vector<Acc> acc;
+  double low_area = 0.0;
+  for (std::size_t t = 0; t < nf; ++t) {
+    if (!low[t]) continue;
+    const auto& tri = mesh.faces[t];
+    const int root = find_root(parent, tri[0]);
+    if (slot[static_cast<std::size_t>(root)] < 0) {
+      slot[static_cast<std::size_t>(root)] = static_cast<int>(acc.size());
+      acc.emplace_back();
+    }
+    Acc& a = acc[static_cast<std::size_t>(slot[static_cast<std::size_t>(root)])];
+    const Vec3 centre =
+        (mesh.vertices[static_cast<std::size_t>(tri[0])] + mesh.vertices[static_cast<std::size_t>(tri[1])] +
+         mesh.vertices[static_cast<std::size_t>(tri[2])]) /
+        3.0;
+    a.area += area[t];
+    a.fa += area[t] * face_f[t];
+    a.centroid += area[t] * centre;
+    low_area += area[t];
+    for (int v : tri) a.vertices.push_back(v);
+  }
+  c.share_confident = 1.0 - low_area / c.surface_area;
+
+  // Data presence: a consolidated point within two sample spacings (or two mesh edges) of a vertex.
+  std::optional<spatial::KdTree> data_tree;
+  double data_radius = 0.0;
+  if (!consolidated.empty()) {
+    data_tree.emplace(std::span<const Vec3>(consolidated.positions));
+    std::vector<double> spacing;
+    const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
+    std::size_t idx[2];
+    double d2[2];
+    for (std::size_t i = 0; i < consolidated.size(); i += step)
+      if (data_tree->knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
+    double s = 0.0;
+    if (!spacing.empty()) {
+      std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
+                       spacing.end());
+      s = spacing[spacing.size() / 2];
+    }
+    data_radius = 2.0 * std::max(s, c.edge_length);
+  }
+
+  std::vector<CertificateRegion> regions;
+  std::vector<std::vector<int>> region_vertices;
+  for (auto& a : acc) {
+    const double share = a.area / c.surface_area;
+    if (share < options.min_region_share || a.area <= 0.0) {
+      c.share_scattered += share;
+      continue;
+    }
+    std::sort(a.vertices.begin(), a.vertices.end());
+    a.vertices.erase(std::unique(a.vertices.begin(), a.vertices.end()), a.vertices.end());
+    CertificateRegion r;
+    r.area = a.area;
+    r.share = share;
+    r.centroid = a.centroid / a.area;
+    r.mean_f = a.fa / a.area;
+    std::size_t near_data = 0;
+    for (int v : a.vertices) {
+      const Vec3& p = mesh.vertices[static_cast<std::size_t>(v)];
+      r.radius = std::max(r.radius, (p - r.centroid).norm());
+      if (data_tree) {
+        double d2 = 0.0;
+        data_tree->nearest(p, &d2);
+        if (d2 <= data_radius * data_radius) ++near_data;
+      }
+    }
+    r.has_data = 2 * near_data >= a.vertices.size();
+    r.expected_accuracy = c.expected_accuracy;
+    regions.push_back(std::move(r));
+    region_vertices.push_back(std::move(a.vertices));
+  }
+
+  // Tracking: each region is matched to the previous iteration's region nearest to it whose extent
+  // overlaps it.
+  std::vector<char> prev_not_improved(previous ? previous->regions.size() : 0, 0);
+  for (auto& r : regions) {
+    if (previous) {
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < previous->regions.size(); ++i) {
+        const auto& p = previous->regions[i];
+        const double d = (p.centroid - r.centroid).norm();
+        if (d <= std::max(p.radius, r.radius) + 2.0 * c.edge_length && d < best) {
+          best = d;
+          r.previous = static_cast<int>(i);
+        }
+      }
+    }
+    if (r.previous >= 0) {
+      const auto& p = previous->regions[static_cast<std::size_t>(r.previous)];
+      const bool improved =
+          r.mean_f >= p.mean_f + options.region_gain || r.area <= (1.0 - options.region_shrink) * p.area;
+      if (p.views_aimed > 0) {
+        r.stalls = improved ? 0 : p.stalls + 1;
+        if (!improved) prev_not_improved[static_cast<std::size_t>(r.previous)] = 1;
+      } else {
+        r.stalls = p.stalls;
+        r.ignored = improved ? 0 : p.ignored + (previous->views_planned > 0 ? 1 : 0);
+      }
+      r.previous = p.id;
+    }
+    const bool settled_now = r.stalls >= options.stalled_rounds || r.ignored >= options.stalled_rounds;
+    r.reason = settled_now ? (r.has_data ? "too_noisy" : "unreachable") : (r.has_data ? "improving" : "not_scanned");
+  }
+  if (previous) {
+    for (std::size_t i = 0; i < previous->regions.size(); ++i)
+      if (previous->regions[i].views_aimed > 0) {
+        ++c.regions_aimed_before;
+        if (!prev_not_improved[i]) ++c.regions_improved;
+      }
+  }
+
+  const bool stalled_round = c.regions_aimed_before > 0 && c.regions_improved == 0;
+  c.stalled_rounds = stalled_round ? (previous ? previous->stalled_rounds : 0) + 1 : 0;
+
+  // Largest first; the runtime look-up of low vertices follows the new ids.
+  std::vector<std::size_t> order(regions.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return regions[a].area > regions[b].area; });
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    CertificateRegion r = regions[order[k]];
+    r.id = static_cast<int>(k);
+    for (int v : region_vertices[order[k]]) {
+      c.low_vertices.push_back(mesh.vertices[static_cast<std::size_t>(v)]);
+      c.low_vertex_region.push_back(r.id);
+    }
+    if (r.reason == "unreachable")
+      c.share_unreachable += r.share;
+    else if (r.reason == "too_noisy")
+      c.share_too_noisy += r.share;
+    else
+      c.share_improvable += r.share;
+    c.regions.push_back(std::move(r));
+  }
+  c.done = c.share_improvable < options.remaining_share;
+  return c;
+}
+
+std::string describe(const Certificate& c, std::size_t max_regions) {
+  std::string out = fmt::format(
+      "quality certificate (iteration {}): {:.1f} % of the surface has confidence >= {:.3f}; {}\n", c.iteration,
+      100.0 * c.share_confident, c.threshold,
+      c.done ? fmt::format("DONE: what views can still improve is {:.2f} % of the surface", 100.0 * c.share_improvable)
+             : fmt::format("NOT DONE: {:.2f} % of the surface can still be improved by views",
+                           100.0 * c.share_improvable));
+  out += fmt::format(
+      "  left: {:.2f} % unreachable, {:.2f} % too noisy, {:.2f} % scattered specks; scanner's expected accuracy "
+      "{:.3g}\n",
+      100.0 * c.share_unreachable, 100.0 * c.share_too_noisy, 100.0 * c.share_scattered, c.expected_accuracy);
+  for (std::size_t i = 0; i < c.regions.size() && i < max_regions; ++i) {
+    const auto& r = c.regions[i];
+    out += fmt::format(
+        "  region {}: {:.2f} % of the surface at ({:.3f}, {:.3f}, {:.3f}), radius {:.3f}, mean f {:.3f}: {}\n", r.id,
+        100.0 * r.share, r.centroid.x(), r.centroid.y(), r.centroid.z(), r.radius, r.mean_f, r.reason);
+  }
+  if (c.regions.size() > max_regions)
+    out += fmt::format("  ... and {} smaller regions\n", c.regions.size() - max_regions);
+  return out;
+}
+
+void count_views_aimed(Certificate& c, const std::vector<Vec3>& targets) {
+  for (auto& r : c.regions) r.views_aimed = 0;
+  c.views_planned = static_cast<int>(targets.size());
+  if (c.low_vertices.empty() || targets.empty()) return;
+  const spatial::KdTree tree(std::span<const Vec3>(c.low_vertices));
+  const double reach2 = 4.0 * c.edge_length * c.edge_length;
+  for (const Vec3& t : targets) {
+    double d2 = 0.0;
+    const std::size_t i = tree.nearest(t, &d2);
+    if (i < c.low_vertices.size() && d2 <= reach2)
+      ++c.regions[static_cast<std::size_t>(c.low_vertex_region[i])].views_aimed;
+  }
+}
+
+std::size_t mask_settled_regions(const Certificate& c, PointCloud& iso_points) {
+  auto* f = iso_points.scalars.find("f");
+  if (!f || c.low_vertices.empty()) return 0;
+  if (std::none_of(c.regions.begin(), c.regions.end(), settled)) return 0;
+  const spatial::KdTree tree(std::span<const Vec3>(c.low_vertices));
+  const double reach2 = 4.0 * c.edge_length * c.edge_length;
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < iso_points.size(); ++i) {
+    double d2 = 0.0;
+    const std::size_t k = tree.nearest(iso_points.positions[i], &d2);
+    if (k >= c.low_vertices.size() || d2 > reach2) continue;
+    if (settled(c.regions[static_cast<std::size_t>(c.low_vertex_region[k])]) && (*f)[i] < 1.0) {
+      (*f)[i] = 1.0;
+      ++changed;
+    }
+  }
+  return changed;
+}
+
+}  // namespace autoscan::session

@@ -1,0 +1,103 @@
+#pragma once
+// The quality certificate of an iteration's model and the stop rule on what is left to do
+// (issue 22, docs/stop-rule.md).
+//
+// The iso-surface (the Poisson mesh, vertex scalar f of Eq. 3) is split into triangles of low
+// confidence (mean f of the corners below a threshold, StopOptions::confidence) and the rest; the
+// low triangles sharing a vertex form regions. Each region carries its area, centroid, extent, mean
+// f, whether the model has data there (a consolidated point near most of its vertices), the views of
+// the round that looked at it (their targets, Eq. 5, nearest to it) and, matched to the previous
+// iteration's region at the same place, whether those views improved it. A region the views looked
+// at without improving it for StopOptions::stalled_rounds rounds in a row is "unreachable" (no data: the scanner cannot
+// see it) or "too_noisy" (data, but more of it does not raise f), as is a region the planner passed over for
+// StopOptions::stalled_rounds rounds in a row; the others are "not_scanned" (no data yet) or
+// "improving" (data, low f, views still help). The rule stops when the area views can still
+// improve (not_scanned + improving) is a small share of the surface.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "autoscan/core/mesh.hpp"
+#include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/core/types.hpp"
+#include "autoscan/session/options.hpp"
+
+namespace autoscan::session {
+
+struct CertificateRegion {
+  int id = 0;
+  double area = 0.0;             ///< world units²
+  double share = 0.0;            ///< of the iso-surface's area
+  Vec3 centroid = Vec3::Zero();  ///< area-weighted
+  double radius = 0.0;           ///< largest distance of its vertices from the centroid
+  double mean_f = 0.0;           ///< area-weighted mean f of its triangles
+  bool has_data = false;         ///< most of its vertices lie near a consolidated point
+  /// "not_scanned", "improving" (views can still improve it), "unreachable", "too_noisy" (views
+  /// looked at it and did not).
+  std::string reason;
+  int views_aimed = 0;  ///< views of this iteration's plan whose target lies in it
+  /// Rounds in a row whose views looked at it without improving it (a match that no view looked at
+  /// keeps its count); settled from StopOptions::stalled_rounds on.
+  int stalls = 0;
+  /// Rounds in a row whose plan had views, none aimed at it, and it did not improve: the viewing field
+  /// finds no view for it (a phantom surface, or one no reachable view sees). From
+  /// StopOptions::stalled_rounds on it is settled like a stalled one.
+  int ignored = 0;
+  int previous = -1;  ///< the matched region of the previous iteration's certificate (-1: new)
+  /// The scanner's expected depth accuracy there: its noise model's σ at the optimal distance and
+  /// normal incidence (ScannerSpec::noise; 0 for a noise-free scanner).
+  double expected_accuracy = 0.0;
+};
+
+struct Certificate {
+  int iteration = 0;
+  double threshold = 0.0;          ///< the confidence threshold used (StopOptions::confidence)
+  double surface_area = 0.0;       ///< of the iso-surface
+  double share_confident = 0.0;    ///< share of the area whose f is at or above the threshold
+  double share_scattered = 0.0;    ///< low-confidence area in regions below min_region_share
+  double share_improvable = 0.0;   ///< not_scanned + improving regions: what views can still do
+  double share_unreachable = 0.0;  ///< unreachable regions
+  double share_too_noisy = 0.0;    ///< too_noisy regions
+  int regions_improved = 0;        ///< regions of the previous round's plan that improved (or vanished)
+  int regions_aimed_before = 0;    ///< regions the previous round's views looked at
+  int views_planned = 0;           ///< views of this iteration's plan (count_views_aimed)
+  /// Rounds in a row, ending with this one, whose views looked at regions and improved none.
+  int stalled_rounds = 0;
+  bool done = false;                       ///< share_improvable below StopOptions::remaining_share
+  double expected_accuracy = 0.0;          ///< the scanner's σ at the optimal distance, normal incidence
+  std::vector<CertificateRegion> regions;  ///< largest first
+
+  // Not persisted: the low-confidence vertices of the tracked regions and their region index, for
+  // count_views_aimed and mask_settled_regions in the iteration that computed the certificate.
+  std::vector<Vec3> low_vertices;
+  std::vector<int> low_vertex_region;
+  double edge_length = 0.0;  ///< mean edge length of the mesh
+};
+
+nlohmann::json to_json(const Certificate& c);
+/// Throws InputError naming `what` for a malformed certificate.
+Certificate certificate_from_json(const nlohmann::json& j, const std::string& what = "certificate");
+
+/// The certificate of a model: `mesh` with the vertex scalar "f" (or, without it, f of the nearest
+/// of `iso_points`, scalar "f"), `consolidated` the points it was built from (data presence),
+/// `previous` the previous iteration's certificate (with views_aimed filled in), for tracking.
+Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
+                                const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
+                                const Certificate* previous);
+
+/// The certificate for a person: a verdict line ("done" or what is missing) and one line per region
+/// (at most `max_regions`, the largest), each with its area share, place, mean f and reason.
+std::string describe(const Certificate& c, std::size_t max_regions = 8);
+
+/// Counts, per region of `c`, the view targets (Eq. 5's s_k') that lie in it: the nearest
+/// low-confidence vertex of a tracked region is within two mean edge lengths of the target.
+void count_views_aimed(Certificate& c, const std::vector<Vec3>& targets);
+
+/// Iso-points of regions marked unreachable or too noisy get f = 1 in a copy the planner sees, so
+/// that they draw no more views (the viewing field weighs each iso-point by 1 − f, Eq. 4). Returns
+/// the count changed.
+std::size_t mask_settled_regions(const Certificate& c, PointCloud& iso_points);
+
+}  // namespace autoscan::session
