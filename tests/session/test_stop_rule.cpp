@@ -178,6 +178,12 @@ TEST(StopRuleRemaining, ARegionNoViewImprovedBecomesUnreachableAndTheRuleStops) 
   EXPECT_EQ(d.stalled_rounds, 2);
   EXPECT_TRUE(d.done);
   EXPECT_EQ(remaining_rule(d, 0.8, 0.8, StopOptions{}), "complete");
+  // Done, but the verdict says what is missing.
+  const std::string text = describe(d);
+  EXPECT_NE(text.find(fmt::format("DONE with {:.2f} % missing (unreachable {:.2f} %", 100.0 * d.share_unreachable,
+                                  100.0 * d.share_unreachable)),
+            std::string::npos)
+      << text;
   // With data there it is "too noisy".
   const auto e = compute_certificate(2, mesh, iso_of(mesh), square_points(0.0), noisy_scanner(), StopOptions{}, &b);
   EXPECT_EQ(e.regions[0].reason, "too_noisy");

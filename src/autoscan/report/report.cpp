@@ -331,7 +331,10 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
     if (cert.is_object()) {
       auto pct = [&](const char* key) { return fmt::format("{:.2f} %", 100.0 * cert.value(key, 0.0)); };
       const bool done = cert.value("done", false);
-      cert_html << "<p class=\"verdict " << (done ? "done" : "not-done") << "\">" << (done ? "DONE" : "NOT DONE")
+      const double missing = cert.value("share_unreachable", 0.0) + cert.value("share_too_noisy", 0.0);
+      const std::string verdict =
+          !done ? "NOT DONE" : missing > 0.0 ? fmt::format("DONE with {:.2f} % missing", 100.0 * missing) : "DONE";
+      cert_html << "<p class=\"verdict " << (done ? "done" : "not-done") << "\">" << verdict
                 << ": " << pct("share_confident") << " of the surface has confidence &ge; "
                 << fmt::format("{:.3f}", cert.value("threshold", 0.0)) << "; views can still improve "
                 << pct("share_improvable") << ", unreachable " << pct("share_unreachable") << ", too noisy "

@@ -333,13 +333,27 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   return c;
 }
 
+namespace {
+
+// " with X % missing (unreachable Y %, too noisy Z %)" when a done scan still has settled regions: a
+// verdict must not read as complete while part of the surface is certified missing.
+std::string done_caveat(const Certificate& c) {
+  const double missing = c.share_unreachable + c.share_too_noisy;
+  if (!(missing > 0.0)) return {};
+  return fmt::format(" with {:.2f} % missing (unreachable {:.2f} %, too noisy {:.2f} %)", 100.0 * missing,
+                     100.0 * c.share_unreachable, 100.0 * c.share_too_noisy);
+}
+
+}  // namespace
+
 std::string describe(const Certificate& c, std::size_t max_regions) {
-  std::string out = fmt::format(
-      "quality certificate (iteration {}): {:.1f} % of the surface has confidence >= {:.3f}; {}\n", c.iteration,
-      100.0 * c.share_confident, c.threshold,
-      c.done ? fmt::format("DONE: what views can still improve is {:.2f} % of the surface", 100.0 * c.share_improvable)
-             : fmt::format("NOT DONE: {:.2f} % of the surface can still be improved by views",
-                           100.0 * c.share_improvable));
+  std::string out =
+      fmt::format("quality certificate (iteration {}): {:.1f} % of the surface has confidence >= {:.3f}; {}\n",
+                  c.iteration, 100.0 * c.share_confident, c.threshold,
+                  c.done ? fmt::format("DONE{}: what views can still improve is {:.2f} % of the surface",
+                                       done_caveat(c), 100.0 * c.share_improvable)
+                         : fmt::format("NOT DONE: {:.2f} % of the surface can still be improved by views",
+                                       100.0 * c.share_improvable));
   out += fmt::format(
       "  left: {:.2f} % unreachable, {:.2f} % too noisy, {:.2f} % scattered specks; scanner's expected accuracy "
       "{:.3g}\n",
