@@ -251,6 +251,20 @@ struct Level {
   std::size_t splat = 0;
 };
 
+// Int V . grad H_a at active node a of L: the gradient stencils of H_a against the coefficients W of
+// V at its 27 neighbours (nbr: 27 indices per active node, -1 outside E).
+double divergence_at(const Level& L, const std::vector<std::int32_t>& nbr, std::size_t a, const std::vector<Vec3>& W) {
+  Vec3 G[27];
+  const std::uint64_t key = L.keys[L.act[a]];
+  stencils(key_x(key), key_y(key), key_z(key), L.n, nullptr, G);
+  double sum = 0.0;
+  for (int k = 0; k < 27; ++k) {
+    const std::int32_t j = nbr[a * 27 + k];
+    if (j >= 0) sum += G[k].dot(W[j]);
+  }
+  return sum;
+}
+
 class Solver {
  public:
   Solver(const PoissonOptions& opt, Samples& s, PoissonDiagnostics& diag, const ProgressCallback& cb)
@@ -667,17 +681,7 @@ void Solver::compute_rhs() {
         }
       }
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nA, 1024), [&](const auto& r) {
-        Vec3 G[27];
-        for (std::size_t a = r.begin(); a != r.end(); ++a) {
-          const std::uint64_t key = L.keys[L.act[a]];
-          stencils(key_x(key), key_y(key), key_z(key), L.n, nullptr, G);
-          double s = 0.0;
-          for (int k = 0; k < 27; ++k) {
-            const std::int32_t j = nbr[a * 27 + k];
-            if (j >= 0) s += G[k].dot(v[j]);
-          }
-          L.b[L.act[a]] = s;
-        }
+        for (std::size_t a = r.begin(); a != r.end(); ++a) L.b[L.act[a]] = divergence_at(L, nbr, a, v);
       });
       L.own = std::move(v);
     }
@@ -824,17 +828,7 @@ struct Solver::LevelSystem {
 void Solver::add_coarse_divergence(Level& L, const std::vector<std::int32_t>& nbr, const std::vector<Vec3>& W) const {
   if (std::all_of(W.begin(), W.end(), [](const Vec3& w) { return w == Vec3::Zero(); })) return;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, L.act.size(), 1024), [&](const auto& r) {
-    Vec3 G[27];
-    for (std::size_t a = r.begin(); a != r.end(); ++a) {
-      const std::uint64_t key = L.keys[L.act[a]];
-      stencils(key_x(key), key_y(key), key_z(key), L.n, nullptr, G);
-      double sum = 0.0;
-      for (int k = 0; k < 27; ++k) {
-        const std::int32_t j = nbr[a * 27 + k];
-        if (j >= 0) sum += G[k].dot(W[j]);
-      }
-      L.b[L.act[a]] += sum;
-    }
+    for (std::size_t a = r.begin(); a != r.end(); ++a) L.b[L.act[a]] += divergence_at(L, nbr, a, W);
   });
 }
 
