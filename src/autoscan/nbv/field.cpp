@@ -431,8 +431,8 @@ class BlockSearch {
   std::vector<double> block_lb_, voxel_lb_, block_sorted_, val_;
   std::vector<int> order_;
   BoundSoA list_;
-  std::vector<std::pair<double, int>> todo_;  // (voxel bound, position in list)
-  std::vector<std::pair<double, int>> cand_;  // (value, iso-point index)
+  std::vector<std::pair<double, int>> pending_;  // (voxel bound, position in list)
+  std::vector<std::pair<double, int>> cand_;     // (value, iso-point index)
   std::vector<std::size_t> voxels_;
 };
 
@@ -530,13 +530,13 @@ void BlockSearch::voxel(std::size_t v, int& seed) {
       block_sorted_.begin());
   log_bounds(list_, npre, q, 0.0, W_, voxel_lb_.data());
   bounds += npre;
-  todo_.clear();
+  pending_.clear();
   for (std::size_t t = 0; t < npre; ++t)
-    if (voxel_lb_[t] > log_thr) todo_.emplace_back(voxel_lb_[t], static_cast<int>(t));
-  std::sort(todo_.begin(), todo_.end(), [](const auto& x, const auto& y) {
+    if (voxel_lb_[t] > log_thr) pending_.emplace_back(voxel_lb_[t], static_cast<int>(t));
+  std::sort(pending_.begin(), pending_.end(), [](const auto& x, const auto& y) {
     return x.first > y.first || (x.first == y.first && x.second < y.second);
   });
-  for (const auto& [vb, t] : todo_) {
+  for (const auto& [vb, t] : pending_) {
     if (vb <= log_thr) break;  // sorted: no later cluster can beat `best`
     const Cluster& cl = cs_.clusters[static_cast<std::size_t>(list_.id[static_cast<std::size_t>(t)])];
     // Log-domain estimate for every point, exact value for the survivors.
