@@ -12,6 +12,8 @@
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/nbv/nbv.hpp"
+#include "autoscan/shapes/procedural.hpp"
+#include "autoscan/spatial/ray_scene.hpp"
 #include "nbv_fixtures.hpp"
 
 namespace autoscan::nbv {
@@ -161,6 +163,7 @@ TEST(NbvPlan, ViewsAreNonAdjacentEmptyAndInRange) {
   s.iso = sphere_points(Vec3::Zero(), 0.3, 3000, conf);
   ScannerSpec sc;
   NbvOptions o;
+  o.selection = Selection::paper;  // §5.2 as published: non-adjacent cells
   o.grid_resolution = 40;
   o.cells = 8;
   o.max_views = 12;
@@ -192,6 +195,140 @@ TEST(NbvPlan, ViewsAreNonAdjacentEmptyAndInRange) {
   double L = Rig{}.travel_cost(from, r.views[0].pose);
   for (std::size_t i = 1; i < r.views.size(); ++i) L += Rig{}.travel_cost(r.views[i - 1].pose, r.views[i].pose);
   EXPECT_NEAR(L, r.path_length, 1e-9);
+}
+
+// ---- joint selection (docs/planners.md) ------------------------------------------------------------
+
+// Three separate low-confidence caps on a sphere.
+PointCloud three_caps(int n) {
+  const Vec3 axes[3] = {Vec3::UnitZ(), Vec3(1, 0, -0.3).normalized(), Vec3(-0.5, -0.8, 0).normalized()};
+  return sphere_points(Vec3::Zero(), 0.3, n, [&](const Vec3& d) {
+    double f = 1.0;
+    for (const auto& a : axes) f = std::min(f, graded_cap(a, 30)(d));
+    return f;
+  });
+}
+
+TEST(NbvJoint, ThreeCapsGetOneViewEachBeforeAnyGetsASecond) {
+  CapSphere s;
+  s.iso = three_caps(3000);
+  const Vec3 axes[3] = {Vec3::UnitZ(), Vec3(1, 0, -0.3).normalized(), Vec3(-0.5, -0.8, 0).normalized()};
+  NbvOptions o;
+  o.grid_resolution = 40;
+  o.cells = 8;
+  o.max_views = 3;
+  o.optimize_path = false;
+  const PlanResult r = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{}, std::nullopt, o, &s.field);
+  ASSERT_EQ(r.views.size(), 3u);
+  std::set<int> caps;
+  for (const auto& v : r.views) {
+    int best = 0;
+    for (int c = 1; c < 3; ++c)
+      if (v.target.normalized().dot(axes[c]) > v.target.normalized().dot(axes[best])) best = c;
+    EXPECT_LT(angle_deg(v.target, axes[best]), 30.0) << "a view aims outside every cap";
+    caps.insert(best);
+  }
+  EXPECT_EQ(caps.size(), 3u) << "two views of the round aim at the same cap while another has none";
+  // The paper's rule (selection = paper) evaluates no pool and no need.
+  NbvOptions p = o;
+  p.selection = Selection::paper;
+  const PlanResult rp = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{}, std::nullopt, p, &s.field);
+  EXPECT_EQ(rp.diagnostics.pool, 0u);
+  EXPECT_EQ(rp.diagnostics.need, 0.0);
+}
+
+TEST(NbvJoint, GainsAddUpAndStayBelowTheNeed) {
+  CapSphere s;
+  s.iso = three_caps(3000);
+  NbvOptions o;
+  o.grid_resolution = 40;
+  o.cells = 8;
+  o.max_views = 8;
+  o.optimize_path = false;  // views stay in selection order
+  const PlanResult r = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{}, std::nullopt, o, &s.field);
+  ASSERT_GE(r.views.size(), 3u);
+  const auto& d = r.diagnostics;
+  EXPECT_GT(d.pool, r.views.size() - 1);
+  double sum = 0.0;
+  for (const auto& v : r.views) {
+    EXPECT_GE(v.gain, o.min_view_gain * static_cast<double>(s.iso.size()));
+    sum += v.gain;
+  }
+  EXPECT_NEAR(sum, d.gain, 1e-9 * sum);
+  // Need is (tau - f) / tau below tau = done_confidence, at most 1, and quality at most 1: the views
+  // cannot add more than the need.
+  EXPECT_LE(d.gain, d.need + 1e-9);
+  const double need = std::accumulate(
+      s.iso.scalars.find("f")->begin(), s.iso.scalars.find("f")->end(), 0.0,
+      [&](double acc, double f) { return acc + std::max(0.0, o.done_confidence - f) / o.done_confidence; });
+  EXPECT_NEAR(d.need, need, 1e-6 * need);
+  // A higher bar for a view's gain never gives more views.
+  NbvOptions strict = o;
+  strict.min_view_gain = 0.05;
+  const PlanResult rs = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{}, std::nullopt, strict, &s.field);
+  EXPECT_LE(rs.views.size(), r.views.size());
+  for (const auto& v : rs.views) EXPECT_GE(v.gain, 0.05 * static_cast<double>(s.iso.size()));
+}
+
+// The built-in object's overhang: the body wall under the hood and the hood's inner plate face each
+// other across a narrow channel open only at the bottom. Eq. 4's orientation term (sigma 25 deg) gives
+// no voxel a useful g for them (a view along their normals is blocked by the other wall); the region
+// search finds a position below the channel that measures them (camera and projector both).
+TEST(NbvJoint, ARegionUnderTheHoodGetsAViewThatMeasuresIt) {
+  const ProceduralObject obj;
+  const TriangleMesh mesh = obj.mesh(90);
+  PointCloud iso;
+  std::vector<double> f;
+  std::vector<Vec3> hood;
+  for (std::size_t i = 0; i < mesh.vertices.size(); i += 3) {
+    const Vec3& p = mesh.vertices[i];
+    const bool low = obj.region(p) == ProceduralObject::Region::overhang;
+    iso.positions.push_back(p);
+    iso.normals.push_back(obj.normal(p));
+    f.push_back(low ? 0.0 : 1.0);
+    if (low) hood.push_back(p);
+  }
+  iso.scalars.set("f", f);
+  ASSERT_GT(hood.size(), 30u);
+  const ScannerSpec sc;
+  NbvOptions o;
+  o.grid_resolution = 50;
+  o.cells = 8;
+  const spatial::RayScene scene(mesh);
+  auto measured = [&](const NbvView& v) {  // hood points inside the frustum, in range, camera + projector see them
+    const Mat3 R = v.pose.rotation();
+    const Vec3 right = R.col(0);
+    const Vec3 proj = v.pose.position + sc.baseline * right;
+    const double th = std::tan(sc.fov_deg * M_PI / 360.0), tv = std::tan(sc.vertical_fov_deg() * M_PI / 360.0);
+    const double cmax = std::cos(sc.max_incidence_deg * M_PI / 180.0);
+    std::size_t n = 0;
+    for (const Vec3& p : hood) {
+      const Vec3 pc = R.transpose() * (p - v.pose.position);
+      const Vec3 nrm = obj.normal(p), off = p + 1e-3 * nrm;
+      const double r = pc.norm();
+      if (pc.z() <= 0 || std::abs(pc.x()) > th * pc.z() || std::abs(pc.y()) > tv * pc.z() || r < sc.near || r > sc.far)
+        continue;
+      if (nrm.dot(v.pose.position - p) < cmax * r || nrm.dot(proj - p) < cmax * (proj - p).norm()) continue;
+      if (scene.occluded(v.pose.position, off) || scene.occluded(proj, off)) continue;
+      ++n;
+    }
+    return n;
+  };
+  const PlanResult r = plan_next_best_views(mesh, iso, sc, Rig{}, std::nullopt, o);
+  std::size_t best = 0;
+  for (const auto& v : r.views) best = std::max(best, measured(v));
+  EXPECT_GE(best, hood.size() / 5) << "no view of the round measures a fifth of the hood's hidden walls";
+  // With a single field candidate (which cannot see under the hood from everywhere), the region search
+  // supplies the view: it is chosen and it measures the hidden walls.
+  NbvOptions one = o;
+  one.candidate_pool = 1;
+  const PlanResult r1 = plan_next_best_views(mesh, iso, sc, Rig{}, std::nullopt, one);
+  EXPECT_GE(r1.diagnostics.regions_searched, 1u);
+  ASSERT_GE(r1.diagnostics.region_views_chosen, 1u);
+  std::size_t best_region = 0;
+  for (const auto& v : r1.views)
+    if (v.region) best_region = std::max(best_region, measured(v));
+  EXPECT_GE(best_region, hood.size() / 10) << "the region view does not measure the hood's hidden walls";
 }
 
 TEST(NbvPlan, UnreachableViewsAreDroppedAndCounted) {

@@ -81,6 +81,50 @@ TEST(SelectiveInsertion, FollowsTheNearestIsoPointsConfidence) {
   EXPECT_THROW(selective_insertion_mask(pts.positions, iso, std::vector<double>(3, 0.0), 3.0, r3), InputError);
 }
 
+// A thin plate (the top of a channel): iso-points only on its upper face (f = 1, normals +Z); a scan
+// of its lower face (normals -Z) 0.01 below. The paper's plain nearest iso-point is on the done upper
+// face, so the lower face is never inserted; with oriented look-up no nearby iso-point faces its way,
+// the face is missing from the model (f = 0) and every point is kept. Points of the upper face stay
+// refused either way, and a lower face that the model does have (iso-points with f = 0.5, normals
+// -Z) keeps about (1 - 0.5)^3 = 1/8.
+TEST(SelectiveInsertion, OrientedLookUpKeepsTheOtherSideOfAThinWall) {
+  std::vector<Vec3> iso, iso_n;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {
+      iso.emplace_back(0.01 * i, 0.01 * j, 0.0);
+      iso_n.emplace_back(0, 0, 1);
+    }
+  std::vector<double> f(iso.size(), 1.0);
+  std::vector<Vec3> below, below_n, above, above_n;
+  Rng grid(3);
+  for (int i = 0; i < 4000; ++i) {
+    const double x = 0.05 + 0.29 * grid.uniform(), y = 0.05 + 0.29 * grid.uniform();
+    below.emplace_back(x, y, -0.01);
+    below_n.emplace_back(0, 0, -1);
+    above.emplace_back(x, y, 0.001);
+    above_n.emplace_back(0, 0, 1);
+  }
+  auto kept = [](const std::vector<char>& k) { return std::count(k.begin(), k.end(), 1); };
+  Rng r1(5), r2(5), r3(5), r4(5);
+  EXPECT_EQ(kept(selective_insertion_mask(below, iso, f, 3.0, r1)), 0);  // the paper's plain nearest
+  EXPECT_EQ(kept(selective_insertion_mask(below, below_n, iso, iso_n, f, 3.0, r2, 16, 60.0)), 4000);
+  EXPECT_EQ(kept(selective_insertion_mask(above, above_n, iso, iso_n, f, 3.0, r3, 16, 60.0)), 0);
+  // neighbours = 0 is the paper's rule, bit for bit (same draws).
+  Rng r5(5), r6(5);
+  EXPECT_EQ(selective_insertion_mask(below, below_n, iso, iso_n, f, 3.0, r5, 0, 60.0),
+            selective_insertion_mask(below, iso, f, 3.0, r6));
+  // The lower face in the model at half confidence: its own f decides.
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {
+      iso.emplace_back(0.01 * i, 0.01 * j, -0.011);
+      iso_n.emplace_back(0, 0, -1);
+      f.push_back(0.5);
+    }
+  const double share =
+      static_cast<double>(kept(selective_insertion_mask(below, below_n, iso, iso_n, f, 3.0, r4, 16, 60.0))) / 4000.0;
+  EXPECT_NEAR(share, 0.125, 0.025);  // binomial std-dev sqrt(0.125 * 0.875 / 4000) = 0.005
+}
+
 TEST(SelectiveInsertion, SessionKeepsAboutAnEighthAtHalfConfidenceAndAllWhenDisabled) {
   for (bool selective : {true, false}) {
     const auto dir = fresh_dir(selective ? "ins_on" : "ins_off");

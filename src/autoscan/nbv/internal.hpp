@@ -25,9 +25,10 @@ struct IsoData {
   std::vector<Vec3> p;
   std::vector<Vec3> n;
   std::vector<double> f;
-  std::vector<double> a;  ///< 1 - f
-  std::vector<Vec3> end;  ///< visibility ray end points
-  double diagonal = 0.0;  ///< bounding-box diagonal of p
+  std::vector<double> a;     ///< 1 - f
+  std::vector<Vec3> end;     ///< visibility ray end points
+  std::vector<double> need;  ///< joint selection: (tau - f) / tau below tau = NbvOptions::done_confidence, else 0
+  double diagonal = 0.0;     ///< bounding-box diagonal of p
   std::size_t size() const { return p.size(); }
 };
 
@@ -94,5 +95,47 @@ std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData&
 /// Eq. 4 on every candidate voxel, brute force or fast (see FieldMethod). Fills g, direction, argmax.
 void compute_vvf(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,
                  const NbvOptions& options, NbvDiagnostics& diag);
+
+/// Eq. 5's result: the iso-point s_k' a view at v aims at, with its eta and zeta.
+struct AimResult {
+  bool ok = false;  ///< false when no visible iso-point of Upsilon_k lies within [d_n, d_f] of v
+  int target = -1;
+  double eta = 0.0, zeta = 0.0;
+};
+/// Eq. 5 for a view at `v` whose field maximiser is iso-point `seed` (planner.cpp).
+AimResult aim(const Vec3& v, int seed, const IsoData& iso, const spatial::KdTree& tree, const spatial::RayScene& scene,
+              const Weights& W, const ScannerSpec& sc, const NbvOptions& o);
+
+/// What one view would measure (select.cpp): the iso-points inside its frustum, within [d_n, d_f],
+/// visible, and seen at an incidence up to the scanner's max_incidence_deg, each with the quality q
+/// in (0, 1] the scanner model predicts there (σ at d_o and normal incidence over σ at the point,
+/// ScannerSpec::relative_depth_sigma, capped at 1). Only points with need a = 1 - f > tolerance.
+struct Coverage {
+  std::vector<std::uint32_t> index;  ///< iso-point indices, increasing
+  std::vector<float> q;              ///< quality per entry of `index`
+  std::size_t rays = 0;              ///< visibility rays cast
+};
+Coverage view_coverage(const Pose& pose, const IsoData& iso, const spatial::KdTree& tree,
+                       const spatial::RayScene& scene, const ScannerSpec& sc);
+
+/// A candidate of the joint selection: a reachable, aimed view and what it would measure.
+struct PoolView {
+  NbvView view;
+  Coverage coverage;
+};
+
+/// Regions of low confidence (f < o.region_confidence) that no candidate of `pool` covers to at
+/// least half of their need: for each, the candidate voxel whose view measures most of the region
+/// (scanner model, not Eq. 4's orientation term), aimed at what it sees. Appends to `pool`.
+void add_region_views(std::vector<PoolView>& pool, const ViewingField& vf, const IsoData& iso,
+                      const spatial::KdTree& tree, const spatial::RayScene& scene, const ScannerSpec& sc,
+                      const Rig& rig, const NbvOptions& o, NbvDiagnostics& diag);
+
+/// Greedy selection of at most o.max_views views of `pool` maximising the facility-location
+/// objective sum_k need_k max_{v in S} q_{v,k} (submodular: each pick's value is what the earlier picks
+/// of the round do not already measure as well), with lazy evaluation; stops when the best marginal
+/// gain is below o.min_view_gain * #iso-points. Returns the picks in selection order, gain filled in.
+std::vector<NbvView> select_joint(std::vector<PoolView>& pool, const IsoData& iso, const NbvOptions& o,
+                                  NbvDiagnostics& diag);
 
 }  // namespace autoscan::nbv::detail

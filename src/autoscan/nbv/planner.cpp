@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
@@ -75,13 +76,7 @@ ViewingField NbvPlanner::compute_field(const PointCloud& iso_pc, const ImplicitF
   return vf;
 }
 
-namespace {
-
-struct AimResult {
-  bool ok = false;
-  int target = -1;
-  double eta = 0.0, zeta = 0.0;
-};
+namespace detail {
 
 /// Eq. 5. Upsilon_k = iso-points within upsilon_radius_factor * d_f of s_k. Upsilon_k(d), which the
 /// paper leaves loosely defined, is taken here as the iso-points inside the scanner's viewing frustum
@@ -90,8 +85,8 @@ struct AimResult {
 /// is within working range of its target. w(v, s_j) is Eq. 4's full weight (with visibility).
 /// Ties in eta * zeta are broken by the larger zeta, then the lower index; when every product is 0 the
 /// candidate with the largest zeta wins.
-AimResult aim(const Vec3& v, int seed, const detail::IsoData& iso, const spatial::KdTree& tree,
-              const spatial::RayScene& scene, const detail::Weights& W, const ScannerSpec& sc, const NbvOptions& o) {
+AimResult aim(const Vec3& v, int seed, const IsoData& iso, const spatial::KdTree& tree, const spatial::RayScene& scene,
+              const detail::Weights& W, const ScannerSpec& sc, const NbvOptions& o) {
   AimResult res;
   const auto sk = static_cast<std::size_t>(seed);
   const std::vector<std::uint32_t> ups = detail::radius_indices(tree, iso.p[sk], o.upsilon_radius_factor * sc.far);
@@ -163,6 +158,10 @@ AimResult aim(const Vec3& v, int seed, const detail::IsoData& iso, const spatial
   return res;
 }
 
+}  // namespace detail
+
+namespace {
+
 // The views' cells: the grid of §5.2 (o.cells per axis, at most the voxel grid).
 struct CellGrid {
   int C[3];
@@ -218,6 +217,73 @@ void block_neighbours(const CellGrid& cg, std::size_t cell, std::vector<char>& b
       }
 }
 
+// The per-cell maximum `m` as a view: aimed by Eq. 5 and reachable, or nothing (counted in diag).
+std::optional<NbvView> aimed_view(const CellMax& m, const ViewingField& vf, const detail::IsoData& iso,
+                                  const spatial::KdTree& tree, const spatial::RayScene& scene, const detail::Weights& W,
+                                  const ScannerSpec& sc, const Rig& rig, const NbvOptions& o, NbvDiagnostics& diag) {
+  const Vec3 v = vf.grid.center(m.voxel);
+  const detail::AimResult a = detail::aim(v, vf.argmax[m.voxel], iso, tree, scene, W, sc, o);  // Eq. 5
+  if (!a.ok) {
+    ++diag.dropped_out_of_range;
+    return std::nullopt;
+  }
+  NbvView view;
+  view.target = iso.p[static_cast<std::size_t>(a.target)];
+  view.pose = Pose::look_at(v, view.target);
+  std::string why;
+  if (!rig.reachable(view.pose, &why)) {
+    ++diag.dropped_unreachable;
+    log::debug("nbv: view at voxel {} dropped: {}", m.voxel, why);
+    return std::nullopt;
+  }
+  view.score = m.g;
+  view.voxel = m.voxel;
+  view.cell = static_cast<int>(m.cell);
+  view.seed_point = vf.argmax[m.voxel];
+  view.target_point = a.target;
+  view.eta = a.eta;
+  view.zeta = a.zeta;
+  return view;
+}
+
+// §5.2 as published: per-cell maxima by decreasing g, aimed (Eq. 5), reachable, neighbouring cells of
+// a pick removed from V.
+std::vector<NbvView> select_paper(const std::vector<CellMax>& maxima, const CellGrid& cg, const ViewingField& vf,
+                                  const detail::IsoData& iso, const spatial::KdTree& tree,
+                                  const spatial::RayScene& scene, const detail::Weights& W, const ScannerSpec& sc,
+                                  const Rig& rig, const NbvOptions& o, NbvDiagnostics& diag) {
+  std::vector<char> blocked(cg.size(), 0);
+  std::vector<NbvView> chosen;
+  for (const auto& m : maxima) {
+    if (static_cast<int>(chosen.size()) >= o.max_views) break;
+    if (blocked[m.cell]) continue;
+    if (auto view = aimed_view(m, vf, iso, tree, scene, W, sc, rig, o, diag)) {
+      chosen.push_back(*view);
+      block_neighbours(cg, m.cell, blocked);  // remove the 26 neighbouring cells (and this one) from V
+    }
+  }
+  return chosen;
+}
+
+// Joint selection (docs/planners.md): the best o.candidate_pool per-cell maxima, aimed and reachable,
+// plus views searched for low-confidence regions they miss; then the greedy facility-location choice.
+std::vector<NbvView> select_joint(const std::vector<CellMax>& maxima, const ViewingField& vf,
+                                  const detail::IsoData& iso, const spatial::KdTree& tree,
+                                  const spatial::RayScene& scene, const detail::Weights& W, const ScannerSpec& sc,
+                                  const Rig& rig, const NbvOptions& o, NbvDiagnostics& diag) {
+  std::vector<detail::PoolView> pool;
+  for (const auto& m : maxima) {
+    if (static_cast<int>(pool.size()) >= o.candidate_pool) break;
+    if (auto view = aimed_view(m, vf, iso, tree, scene, W, sc, rig, o, diag)) pool.push_back({*view, {}});
+  }
+  tbb::parallel_for(std::size_t(0), pool.size(), [&](std::size_t i) {
+    pool[i].coverage = detail::view_coverage(pool[i].view.pose, iso, tree, scene, sc);
+  });
+  for (const auto& pv : pool) diag.rays_select += pv.coverage.rays;
+  if (o.region_views && diag.active_points > 0) detail::add_region_views(pool, vf, iso, tree, scene, sc, rig, o, diag);
+  diag.pool = pool.size();
+  return detail::select_joint(pool, iso, o, diag);
+}
 }  // namespace
 
 PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>& from, const ImplicitField* field,
@@ -229,7 +295,12 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
   if (from) from->validate("current pose");
   PlanResult res;
   auto& diag = res.diagnostics;
-  const detail::IsoData iso = detail::prepare_iso(iso_pc, o);
+  detail::IsoData iso = detail::prepare_iso(iso_pc, o);
+  if (o.selection == Selection::joint) {  // the need of the joint selection (NbvOptions::done_confidence)
+    iso.need.resize(iso.size());
+    for (std::size_t k = 0; k < iso.size(); ++k)
+      iso.need[k] = std::max(0.0, o.done_confidence - iso.f[k]) / o.done_confidence;
+  }
   const spatial::KdTree tree(iso.p);
   prog.report(0.0);
   res.field = impl_->field(iso, tree, field, diag);
@@ -245,36 +316,9 @@ PlanResult NbvPlanner::plan(const PointCloud& iso_pc, const std::optional<Pose>&
   const CellGrid cg{{std::min(o.cells, dims[0]), std::min(o.cells, dims[1]), std::min(o.cells, dims[2])}};
   const std::vector<CellMax> maxima = cell_maxima(vf, cg, o, diag);
   const detail::Weights W = detail::Weights::make(sc, o);
-  std::vector<char> blocked(cg.size(), 0);
-  std::vector<NbvView> chosen;
-  for (const auto& m : maxima) {
-    if (static_cast<int>(chosen.size()) >= o.max_views) break;
-    if (blocked[m.cell]) continue;
-    const Vec3 v = vf.grid.center(m.voxel);
-    const AimResult a = aim(v, vf.argmax[m.voxel], iso, tree, *impl_->scene, W, sc, o);  // Eq. 5
-    if (!a.ok) {
-      ++diag.dropped_out_of_range;
-      continue;
-    }
-    NbvView view;
-    view.target = iso.p[static_cast<std::size_t>(a.target)];
-    view.pose = Pose::look_at(v, view.target);
-    std::string why;
-    if (!impl_->rig.reachable(view.pose, &why)) {
-      ++diag.dropped_unreachable;
-      log::debug("nbv: view at voxel {} dropped: {}", m.voxel, why);
-      continue;
-    }
-    view.score = m.g;
-    view.voxel = m.voxel;
-    view.cell = static_cast<int>(m.cell);
-    view.seed_point = vf.argmax[m.voxel];
-    view.target_point = a.target;
-    view.eta = a.eta;
-    view.zeta = a.zeta;
-    chosen.push_back(view);
-    block_neighbours(cg, m.cell, blocked);  // remove the 26 neighbouring cells (and this one) from V
-  }
+  std::vector<NbvView> chosen = o.selection == Selection::paper
+                                    ? select_paper(maxima, cg, vf, iso, tree, *impl_->scene, W, sc, impl_->rig, o, diag)
+                                    : select_joint(maxima, vf, iso, tree, *impl_->scene, W, sc, impl_->rig, o, diag);
   if (diag.dropped_unreachable > 0)
     diag.messages.push_back(fmt::format("{} view(s) dropped: outside the {} rig's reach", diag.dropped_unreachable,
                                         Rig::kind_name(impl_->rig.kind)));

@@ -24,6 +24,8 @@ nlohmann::json views_to_json(const PlanResult& result) {
     nlohmann::json j = to_json(v.pose);
     j["score"] = v.score;
     j["target"] = arr(v.target);
+    if (v.gain > 0.0) j["gain"] = v.gain;
+    if (v.region) j["region"] = v.region_id;
     views.push_back(std::move(j));
   }
   return {{"views", std::move(views)}, {"path_length", result.path_length}};
@@ -46,6 +48,14 @@ nlohmann::json diagnostics_to_json(const NbvDiagnostics& d) {
           {"above_threshold", d.above_threshold},
           {"dropped_unreachable", d.dropped_unreachable},
           {"dropped_out_of_range", d.dropped_out_of_range},
+          {"pool", d.pool},
+          {"regions", d.regions},
+          {"regions_searched", d.regions_searched},
+          {"region_views", d.region_views},
+          {"region_views_chosen", d.region_views_chosen},
+          {"rays_select", d.rays_select},
+          {"need", d.need},
+          {"gain", d.gain},
           {"nn_path_length", d.nn_path_length},
           {"seconds",
            {{"space", d.seconds_space},

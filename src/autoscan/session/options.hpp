@@ -152,6 +152,13 @@ struct SessionOptions {
   bool selective_insertion = true;  ///< Eq. 6: insert a point with probability (1 − f(s_k))^ρ; false inserts all
                                     ///< (when the goal is a mesh, not a point set)
   double rho = 3.0;                 ///< Eq. 6: ρ (paper: 3)
+  /// Eq. 6's s_k for a point with a normal: the nearest of its `insertion_neighbours` nearest
+  /// iso-points whose normal is within `insertion_normal_deg` of the point's; when none is, the point
+  /// measures a sheet the model does not have yet and f = 0 (it is kept). The paper takes the plain nearest, which across a thin wall or a narrow channel is an
+  /// iso-point of the other, confident side: a scan of the channel's ceiling was refused because the
+  /// hood's top face above it was done (the demo, docs/stop-rule.md). 0 = the paper's plain nearest.
+  int insertion_neighbours = 16;
+  double insertion_normal_deg = 60.0;
   /// Quality-weighted fusion (docs/fusion.md). Every point carries the depth uncertainty the
   /// scanner's noise model predicts for it (ScannerSpec::relative_depth_sigma: range and incidence;
   /// the model point column `depth_sigma_rel`). When true the screened Poisson solve weighs each
@@ -200,6 +207,8 @@ struct SessionOptions {
     v("registration_max_rotation_deg", registration_max_rotation_deg, schema::at_least(0));
     v("selective_insertion", selective_insertion);
     v("rho", rho, schema::at_least(0));
+    v("insertion_neighbours", insertion_neighbours, schema::at_least(0));
+    v("insertion_normal_deg", insertion_normal_deg, schema::closed(0, 180));
     v("quality_weights", quality_weights);
     v("quality_insertion_ratio", quality_insertion_ratio, schema::at_least(1).or_zero());
     v("stop", stop);

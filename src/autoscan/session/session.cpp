@@ -2,6 +2,8 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <regex>
 
 #include "autoscan/core/atomic_file.hpp"
@@ -218,6 +221,13 @@ void remove_temporaries(const fs::path& dir) {
 
 std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& iso_points,
                                            const std::vector<double>& iso_f, double rho, Rng& rng) {
+  return selective_insertion_mask(points, {}, iso_points, {}, iso_f, rho, rng, 0, 0.0);
+}
+
+std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
+                                           const std::vector<Vec3>& iso_points, const std::vector<Vec3>& iso_normals,
+                                           const std::vector<double>& iso_f, double rho, Rng& rng, int neighbours,
+                                           double normal_deg) {
   AUTOSCAN_REQUIRE(iso_f.size() == iso_points.size(), "selective insertion: {} confidence values for {} iso-points",
                    iso_f.size(), iso_points.size());
   AUTOSCAN_REQUIRE(std::isfinite(rho) && rho >= 0.0, "selective insertion: rho must be >= 0 (got {})", rho);
@@ -226,8 +236,30 @@ std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, cons
   const spatial::KdTree nn(iso_points, kIsoLeafSize);
   std::vector<std::size_t> idx(points.size());
   nn.nearest(points, idx, {});
+  const bool oriented = neighbours > 0 && normals.size() == points.size() && iso_normals.size() == iso_points.size();
+  // A point none of whose nearest iso-points faces its way measures a sheet the model does not have
+  // yet (the far side of a thin wall, the ceiling of a channel the surface bridges): f = 0 there.
+  std::vector<char> unrepresented(points.size(), 0);
+  if (oriented) {
+    const double cos_max = std::cos(normal_deg * std::numbers::pi / 180.0);
+    const auto k = static_cast<std::size_t>(neighbours);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size()), [&](const auto& range) {
+      std::vector<std::size_t> nb(k);
+      std::vector<double> d2(k);
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        const std::size_t m = nn.knn(points[i], k, nb.data(), d2.data());
+        unrepresented[i] = 1;
+        for (std::size_t t = 0; t < m; ++t)
+          if (normals[i].dot(iso_normals[nb[t]]) >= cos_max * normals[i].norm() * iso_normals[nb[t]].norm()) {
+            idx[i] = nb[t];
+            unrepresented[i] = 0;
+            break;
+          }
+      }
+    });
+  }
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const double f = std::clamp(iso_f[idx[i]], 0.0, 1.0);
+    const double f = unrepresented[i] ? 0.0 : std::clamp(iso_f[idx[i]], 0.0, 1.0);
     const double p = std::pow(1.0 - f, rho);  // Eq. 6: P(p_i) = (1 − f(s_k))^ρ
     keep[i] = rng.uniform() < p ? 1 : 0;
   }
@@ -520,6 +552,7 @@ struct Session::Impl {
   PointCloud target;                  // consolidated points with normals
   std::vector<double> target_weight;  // f of the iso-point nearest to each target point
   std::vector<Vec3> iso_positions;
+  std::vector<Vec3> iso_normals;
   std::vector<double> iso_f;
   QualityGate quality_gate;  // the consolidated surface with its σ (insertion by quality)
 
@@ -617,6 +650,7 @@ struct Session::Impl {
     quality_gate =
         tsigma && tsigma->size() == consolidated.size() ? QualityGate(consolidated.positions, *tsigma) : QualityGate();
     iso_positions = iso.positions;
+    iso_normals = iso.normals;
     const auto* f = iso.scalars.find("f");
     iso_f = f ? *f : std::vector<double>(iso.size(), 0.0);
     target_weight.assign(target.size(), 1.0);
@@ -796,7 +830,8 @@ struct Session::Impl {
     clock.reset();
     if (options.selective_insertion && has_model()) {
       Rng rng = Rng(options.seed).stream(kInsertionStream).stream(static_cast<std::uint64_t>(rec.id));
-      keep = selective_insertion_mask(registered.positions, iso_positions, iso_f, options.rho, rng);
+      keep = selective_insertion_mask(registered.positions, registered.normals, iso_positions, iso_normals, iso_f,
+                                      options.rho, rng, options.insertion_neighbours, options.insertion_normal_deg);
     } else {
       keep.assign(registered.size(), 1);
     }

@@ -239,6 +239,14 @@ class Session {
 /// `iso_f` has one value per iso-point. Empty iso-points keep everything.
 std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& iso_points,
                                            const std::vector<double>& iso_f, double rho, Rng& rng);
+/// The same with oriented points (SessionOptions::insertion_neighbours): s_k is the nearest of the
+/// `neighbours` nearest iso-points whose normal is within `normal_deg` of the point's normal; when none
+/// is, the point measures a sheet the model does not have (f = 0: kept). `normals` has one unit normal per point, `iso_normals` one per
+/// iso-point (either empty, or neighbours = 0: the plain nearest). Same random draws as above.
+std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
+                                           const std::vector<Vec3>& iso_points, const std::vector<Vec3>& iso_normals,
+                                           const std::vector<double>& iso_f, double rho, Rng& rng, int neighbours,
+                                           double normal_deg);
 
 /// The stop rule (§5.3) on its own: true when |mean_f − previous_mean_f| < threshold.
 bool confidence_converged(double previous_mean_f, double mean_f, double threshold = 0.005);
