@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/session_layout.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/eval/metrics.hpp"
 #include "autoscan/io/mesh_io.hpp"
@@ -444,7 +446,7 @@ void Collector::iteration_figures(const std::string& m, double n, const std::str
     std::vector<double> cf, er;
     for (const auto& j : jobs_) {
       if (j.model != m || j.noise != n || j.planner != p || j.seed != g_.seeds.front()) continue;
-      const fs::path sp = dir_ / "runs" / j.name / "session.json";
+      const fs::path sp = SessionLayout(dir_ / "runs" / j.name).session_json();
       std::error_code ec;
       if (!finished(dir_, j) || !fs::exists(sp, ec)) continue;
       const json sj = json::parse(read_text_file(sp), nullptr, false);
