@@ -189,7 +189,7 @@ void print_human(const autoscan::simulation::SimulateResult& r) {
                r.pose_error_after);
   fmt::print("results: {}\n", fs::absolute(r.directory).string());
   if (fs::exists(SessionLayout(r.directory).report()))
-    fmt::print("report:  {}\n", fs::absoluteSessionLayout(r.directory).report().string());
+    fmt::print("report:  {}\n", fs::absolute(SessionLayout(r.directory).report()).string());
 }
 
 }  // namespace
@@ -260,7 +260,8 @@ AUTOSCAN_CLI_COMMAND(demo, 10, [](CLI::App& root, autoscan::cli::Globals& g) {
     g.emit(summary(r));
     if (!g.json) {
       print_human(r);
-      fmt::print("open the report in a browser: file://{}\n", fs::absoluteSessionLayout(r.directory).report().string());
+      fmt::print("open the report in a browser: file://{}\n",
+                 fs::absolute(SessionLayout(r.directory).report()).string());
     }
   });
 });
