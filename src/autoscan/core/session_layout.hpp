@@ -12,7 +12,9 @@
 // It lives in core, below every stage, because the session writes the directory while the report
 // (a stage below the session) and the drivers (simulation, bench, the CLI) read it. Paths only: it
 // reads and writes nothing.
+#include <cstddef>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 namespace autoscan {
@@ -35,11 +37,16 @@ class SessionLayout {
   std::filesystem::path orphaned_dir() const { return scans_dir() / "orphaned"; }
   std::filesystem::path scan_ply(int id) const { return scans_dir() / (scan_stem(id) + ".ply"); }
   std::filesystem::path scan_json(int id) const { return scans_dir() / (scan_stem(id) + ".json"); }
+  /// The id of a scan file name "scan_NNNN.ply" or "scan_NNNN.json" (4 or more digits; more than 9
+  /// digits give SIZE_MAX), or nullopt for any other name.
+  static std::optional<std::size_t> scan_id_of(const std::string& filename);
 
   /// "iter_KKK" (at least 3 digits) for iteration `k` >= 0.
   static std::string iteration_name(int k);
   std::filesystem::path iterations_dir() const { return dir_ / "iterations"; }
   std::filesystem::path iteration_dir(int k) const { return iterations_dir() / iteration_name(k); }
+  /// True for an iteration directory's name, "iter_KKK" (3 or more digits).
+  static bool is_iteration_name(const std::string& name);
   /// DIR/iterations/iter_KKK/<file>: cloud.ply (the model with its "new" column), consolidated.ply,
   /// mesh.ply, mesh_color.ply, iso.ply (the iso-points with f), views.json, field_slice.png.
   std::filesystem::path cloud(int k) const { return iteration_dir(k) / "cloud.ply"; }

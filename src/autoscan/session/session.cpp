@@ -1011,15 +1011,10 @@ struct Session::Impl {
     std::vector<fs::path> orphans;
     const fs::path scans_dir = layout().scans_dir();
     if (!fs::is_directory(scans_dir, ec)) return orphans;
-    static const std::regex pattern(R"(scan_(\d{4,})\.(ply|json))");
     for (const auto& e : fs::directory_iterator(scans_dir, ec)) {
-      std::smatch m;
-      const std::string name = e.path().filename().string();
-      if (!std::regex_match(name, m, pattern)) continue;
-      const std::string digits = m[1].str();
-      const std::size_t id = digits.size() > 9 ? std::numeric_limits<std::size_t>::max() : std::stoul(digits);
-      if (id < referenced) continue;
-      AUTOSCAN_REQUIRE(id == referenced,
+      const std::optional<std::size_t> id = SessionLayout::scan_id_of(e.path().filename().string());
+      if (!id || *id < referenced) continue;
+      AUTOSCAN_REQUIRE(*id == referenced,
                        "{}: scans: lists {} scans but {} exists: session.json does not describe the scan files (was "
                        "it edited or replaced?); nothing was moved",
                        where, referenced, e.path().string());
@@ -1093,9 +1088,8 @@ struct Session::Impl {
     remove_temporaries(dir);
     remove_temporaries(L.scans_dir());
     if (fs::is_directory(L.iterations_dir(), ec)) {
-      static const std::regex iter_pattern(R"(iter_\d{3,})");
       for (const auto& e : fs::directory_iterator(L.iterations_dir(), ec))
-        if (std::regex_match(e.path().filename().string(), iter_pattern)) remove_temporaries(e.path());
+        if (SessionLayout::is_iteration_name(e.path().filename().string())) remove_temporaries(e.path());
     }
     std::sort(orphans.begin(), orphans.end());
     if (!orphans.empty()) fs::create_directories(L.orphaned_dir(), ec);
