@@ -39,8 +39,7 @@ function(autoscan_test module)
   endif()
   add_executable(test_${module} ${_srcs})
   target_link_libraries(test_${module} PRIVATE autoscan::${module} ${ARG_LIBS} GTest::gtest_main GTest::gmock
-                                               autoscan_warnings)
-  target_include_directories(test_${module} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
+                                               autoscan_test_support autoscan_warnings)
   target_compile_definitions(test_${module} PRIVATE AUTOSCAN_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data"
                                                     AUTOSCAN_MODELS_DIR="${PROJECT_SOURCE_DIR}/data/models")
   gtest_discover_tests(test_${module} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS ${module})

@@ -1,6 +1,8 @@
 // Fuzz target for session.json: session::parse_session_json, the reader Session::open validates
 // the whole file with before it applies anything or touches a file (session/session.hpp), then the
 // planner the file names is created from its options, as Session::open does.
+#include <nlohmann/json.hpp>
+
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/session/session.hpp"
 #include "fuzz_common.hpp"

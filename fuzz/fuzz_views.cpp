@@ -4,6 +4,7 @@
 // hold a valid pose.
 #include <cmath>
 #include <cstdlib>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/core/json_io.hpp"
 #include "autoscan/planners/planner.hpp"

@@ -7,6 +7,7 @@
 #include <cctype>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/confidence/assess.hpp"
 #include "autoscan/core/error.hpp"

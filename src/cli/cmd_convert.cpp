@@ -2,6 +2,7 @@
 // (PLY, OBJ, OFF, STL; by extension) or rewrites a point cloud as PLY. The input is read and checked
 // completely before anything is written; the output is written atomically.
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/io/normalize.hpp"
@@ -54,12 +55,7 @@ AUTOSCAN_CLI_COMMAND(convert, 91, [](CLI::App& root, autoscan::cli::Globals& g) 
       j["kind"] = "point_cloud";
       j["points"] = cloud.size();
     } else {
-      TriangleMesh mesh;
-      mesh.vertices = std::move(geo.vertices.positions);
-      mesh.vertex_normals = std::move(geo.vertices.normals);
-      mesh.vertex_colors = std::move(geo.vertices.colors);
-      mesh.vertex_scalars = std::move(geo.vertices.scalars);
-      mesh.faces = std::move(geo.faces);
+      TriangleMesh mesh = io::mesh_from_geometry(std::move(geo));
       if (opts->normalize) sim = io::normalize_to_unit_diagonal(mesh);
       io::write_mesh(opts->out, mesh, wo);
       j["kind"] = "mesh";

@@ -3,6 +3,7 @@
 // Ground-truth metrics (docs/conventions.md): accuracy, completeness, precision/recall/F-score at
 // τ, coverage of the truth by a point cloud, and the error histogram of the paper's Figure 9.
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 
 #include "autoscan/eval/metrics.hpp"

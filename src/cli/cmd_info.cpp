@@ -2,6 +2,7 @@
 // topology (boundary and non-manifold edges, components, genus when closed) or, for a file without
 // faces, its point attributes.
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/mesh_io.hpp"

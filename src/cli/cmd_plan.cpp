@@ -5,6 +5,7 @@
 // Eq. 5) ordered into a path from the current pose. Everything is computed before anything is
 // written; each file is written atomically.
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/confidence/assess.hpp"
 #include "autoscan/core/error.hpp"

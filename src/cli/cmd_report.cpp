@@ -1,5 +1,6 @@
 // autoscan report DIR — writes DIR/report.html for a session directory.
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/report/report.hpp"
 #include "command.hpp"

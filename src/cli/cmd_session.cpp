@@ -46,16 +46,8 @@ void require_session_dir(const std::string& dir) {
   AUTOSCAN_REQUIRE(fs::is_directory(dir, ec), "{}: no such session directory", dir);
 }
 
-}  // namespace
-
-AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) {
-  using namespace autoscan;
-  auto* cmd = root.add_subcommand("session",
-                                  "The step-by-step scanning loop for a real robot (init, add-scan, "
-                                  "next-views, status)");
-  cmd->require_subcommand(1);
-
-  // -- init ---------------------------------------------------------------------------------------
+// -- init -----------------------------------------------------------------------------------------
+void add_init(CLI::App* cmd, cli::Globals& g) {
   auto init = std::make_shared<InitArgs>();
   auto* si = cmd->add_subcommand("init", "Create a session directory with a scanner, a rig and parameters");
   si->add_option("dir", init->dir, "Session directory (created; must not hold a session)")->required();
@@ -80,8 +72,10 @@ AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) 
     log::info("session created in {} (planner {}, seed {})", init->dir, o.planner, o.seed);
     g.emit({{"command", "session init"}, {"status", session::to_json(s.status())}});
   });
+}
 
-  // -- add-scan -----------------------------------------------------------------------------------
+// -- add-scan -------------------------------------------------------------------------------------
+void add_add_scan(CLI::App* cmd, cli::Globals& g) {
   auto add = std::make_shared<AddScanArgs>();
   auto* sa = cmd->add_subcommand("add-scan", "Add one scan (world frame of the reported pose) to the session");
   sa->add_option("dir", add->dir, "Session directory")->required();
@@ -104,8 +98,10 @@ AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) 
                   : std::string());
     g.emit({{"command", "session add-scan"}, {"scan", session::to_json(rec)}});
   });
+}
 
-  // -- next-views ---------------------------------------------------------------------------------
+// -- next-views -----------------------------------------------------------------------------------
+void add_next_views(CLI::App* cmd, cli::Globals& g) {
   auto nv = std::make_shared<NextViewsArgs>();
   auto* sn = cmd->add_subcommand("next-views", "Run one iteration and print the next views, ordered from --from");
   sn->add_option("dir", nv->dir, "Session directory")->required();
@@ -142,8 +138,10 @@ AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) 
       summary["record"] = session::to_json(s.iterations()[static_cast<std::size_t>(r.iteration)]);
     g.emit(summary);
   });
+}
 
-  // -- status -------------------------------------------------------------------------------------
+// -- status ---------------------------------------------------------------------------------------
+void add_status(CLI::App* cmd, cli::Globals& g) {
   auto st = std::make_shared<StatusArgs>();
   auto* ss = cmd->add_subcommand("status", "Show where a session stands");
   ss->add_option("dir", st->dir, "Session directory")->required();
@@ -158,4 +156,17 @@ AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) 
       fmt::print("{}", session::describe(session::certificate_from_json(status.certificate)));
     g.emit({{"command", "session status"}, {"status", session::to_json(status)}});
   });
+}
+
+}  // namespace
+
+AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) {
+  auto* cmd = root.add_subcommand("session",
+                                  "The step-by-step scanning loop for a real robot (init, add-scan, "
+                                  "next-views, status)");
+  cmd->require_subcommand(1);
+  add_init(cmd, g);
+  add_add_scan(cmd, g);
+  add_next_views(cmd, g);
+  add_status(cmd, g);
 });

@@ -2,11 +2,13 @@
 // autoscan demo     — the same on the built-in procedural object, then the report.
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/json_io.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/session_layout.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/session/certificate.hpp"
 #include "autoscan/shapes/paint.hpp"
@@ -16,6 +18,7 @@
 
 namespace {
 namespace fs = std::filesystem;
+using autoscan::SessionLayout;
 using autoscan::simulation::SimulateOptions;
 
 struct SimCli {
@@ -157,7 +160,7 @@ void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const s
 
 nlohmann::json summary(const autoscan::simulation::SimulateResult& r) {
   auto j = r.to_json();
-  if (fs::exists(r.directory / "report.html")) j["report"] = (r.directory / "report.html").string();
+  if (fs::exists(SessionLayout(r.directory).report())) j["report"] = SessionLayout(r.directory).report().string();
   return j;
 }
 
@@ -178,14 +181,15 @@ void print_human(const autoscan::simulation::SimulateResult& r) {
         r.best_truth.value("accuracy_mean", 0.0));
   if (r.certificate.is_object())
     fmt::print("{}", autoscan::session::describe(autoscan::session::certificate_from_json(r.certificate)));
-  if (fs::exists(r.directory / "model.ply"))
-    fmt::print("result model (iteration {}): {}\n", r.best_iteration, fs::absolute(r.directory / "model.ply").string());
+  if (fs::exists(SessionLayout(r.directory).model()))
+    fmt::print("result model (iteration {}): {}\n", r.best_iteration,
+               fs::absolute(SessionLayout(r.directory).model()).string());
   if (r.pose_error_before > 0)
     fmt::print("registration: scan points {:.5f} -> {:.5f} from where they belong (mean)\n", r.pose_error_before,
                r.pose_error_after);
   fmt::print("results: {}\n", fs::absolute(r.directory).string());
-  if (fs::exists(r.directory / "report.html"))
-    fmt::print("report:  {}\n", fs::absolute(r.directory / "report.html").string());
+  if (fs::exists(SessionLayout(r.directory).report()))
+    fmt::print("report:  {}\n", fs::absolute(SessionLayout(r.directory).report()).string());
 }
 
 }  // namespace
@@ -256,7 +260,8 @@ AUTOSCAN_CLI_COMMAND(demo, 10, [](CLI::App& root, autoscan::cli::Globals& g) {
     g.emit(summary(r));
     if (!g.json) {
       print_human(r);
-      fmt::print("open the report in a browser: file://{}\n", fs::absolute(r.directory / "report.html").string());
+      fmt::print("open the report in a browser: file://{}\n",
+                 fs::absolute(SessionLayout(r.directory).report()).string());
     }
   });
 });

@@ -15,9 +15,8 @@
 // Exit codes (docs/conventions.md): 0 success, 1 runtime failure (RuntimeError), 2 bad usage or
 // bad input (InputError, CLI parse errors). Library errors are thrown and mapped in main.cpp.
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include <functional>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -27,10 +26,10 @@ namespace autoscan::cli {
 
 /// Flags shared by every command (they may be given before or after the subcommand).
 struct Globals {
-  bool json = false;             ///< --json: print a one-object summary on stdout
+  bool json = false;               ///< --json: print a one-object summary on stdout
   std::string log_level = "info";  ///< --log-level
-  bool quiet = false;            ///< -q: warnings and errors only, no progress bars
-  bool verbose = false;          ///< -v: debug logging
+  bool quiet = false;              ///< -q: warnings and errors only, no progress bars
+  bool verbose = false;            ///< -v: debug logging
 
   /// Registers what to run when subcommand `sub` was given on the command line.
   void on_run(CLI::App* sub, std::function<void()> run) { runners.emplace_back(sub, std::move(run)); }

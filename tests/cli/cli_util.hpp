@@ -10,6 +10,8 @@
 #include <sstream>
 #include <string>
 
+#include "support/temp_dir.hpp"
+
 namespace autoscan::testing {
 
 struct CliResult {
@@ -40,12 +42,8 @@ inline CliResult run_cli(const std::string& args) {
   return r;
 }
 
-/// A fresh empty directory under the system temp dir, unique per test name.
-inline std::filesystem::path fresh_dir(const std::string& name) {
-  const auto d = std::filesystem::temp_directory_path() / ("autoscan_test_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  std::filesystem::create_directories(d);
-  return d;
-}
+/// A fresh empty directory, unique per test name, below the test process's scratch root (removed
+/// when the process exits: support/temp_dir.hpp).
+inline std::filesystem::path fresh_dir(const std::string& name) { return scratch_dir(name); }
 
 }  // namespace autoscan::testing

@@ -14,6 +14,7 @@
 #include "autoscan/core/random.hpp"
 #include "autoscan/core/rig.hpp"
 #include "autoscan/core/scanner_spec.hpp"
+#include "support/temp_dir.hpp"
 
 using namespace autoscan;
 
@@ -84,7 +85,8 @@ TEST(PointCloud, AppendSelectAndValidate) {
 }
 
 TEST(AtomicFile, ExceptionLeavesNoFile) {
-  const auto dir = std::filesystem::temp_directory_path() / "autoscan_test_atomic";
+  const autoscan::testing::TempDir tmp("test_atomic");
+  const std::filesystem::path& dir = tmp.path();
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const auto path = dir / "out.txt";
@@ -170,7 +172,8 @@ TEST(Hardening, RigJsonRefusesUnknownFieldsLikeAScannerSpec) {
 
 // Issue 21, item 8: 1e999 in session.json gave a raw nlohmann exception; a JSON read names its file.
 TEST(Hardening, JsonErrorsNameTheFileIncludingNumberOverflow) {
-  const auto dir = std::filesystem::temp_directory_path() / "autoscan_test_json_io";
+  const autoscan::testing::TempDir tmp("test_json_io");
+  const std::filesystem::path& dir = tmp.path();
   std::filesystem::create_directories(dir);
   write_text_atomic(dir / "big.json", R"({"near": 1e999})");
   const std::string msg = input_error([&] { (void)read_json_file(dir / "big.json"); });
@@ -187,7 +190,8 @@ TEST(Hardening, JsonErrorsNameTheFileIncludingNumberOverflow) {
 // Issue 21, item 8: "write failed" on a full disk did not say the disk was full. The writer leaves
 // the stream failed with errno ENOSPC, as a write(2) on a full disk does.
 TEST(AtomicFile, AFullDiskIsSaidInSoManyWords) {
-  const auto dir = std::filesystem::temp_directory_path() / "autoscan_test_atomic_full";
+  const autoscan::testing::TempDir tmp("test_atomic_full");
+  const std::filesystem::path& dir = tmp.path();
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   std::string msg;

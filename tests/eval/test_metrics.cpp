@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "autoscan/core/error.hpp"
@@ -10,6 +11,7 @@
 #include "autoscan/shapes/primitives.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/shapes/sampling.hpp"
+#include "support/temp_dir.hpp"
 
 using namespace autoscan;
 using namespace autoscan::eval;
@@ -32,11 +34,8 @@ TriangleMesh upper_half(const TriangleMesh& m) {
   return h;
 }
 
-fs::path temp_dir() {
-  const fs::path d = fs::temp_directory_path() / ("autoscan_eval_test_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+// Below the test process's scratch root, removed when the process exits (support/temp_dir.hpp).
+fs::path temp_dir() { return autoscan::testing::shared_scratch_dir("eval"); }
 
 }  // namespace
 

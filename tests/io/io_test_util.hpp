@@ -7,6 +7,7 @@
 
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/random.hpp"
+#include "support/temp_dir.hpp"
 
 namespace autoscan::testing {
 
@@ -77,11 +78,7 @@ inline void write_bytes(const std::filesystem::path& p, const std::string& bytes
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
-inline std::filesystem::path temp_dir(const std::string& name) {
-  const auto d = std::filesystem::temp_directory_path() / ("autoscan_io_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  std::filesystem::create_directories(d);
-  return d;
-}
+/// A fresh empty directory below the test process's scratch root (removed when the process exits).
+inline std::filesystem::path temp_dir(const std::string& name) { return scratch_dir("io_" + name); }
 
 }  // namespace autoscan::testing

@@ -12,17 +12,15 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "support/temp_dir.hpp"
 
 using namespace autoscan;
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_dir() {
-  const auto d = fs::temp_directory_path() / ("autoscan_point_formats_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+// Below the test process's scratch root, removed when the process exits (support/temp_dir.hpp).
+fs::path temp_dir() { return autoscan::testing::shared_scratch_dir("point_formats"); }
 
 fs::path write_bytes(const std::string& name, const std::string& bytes) {
   const auto p = temp_dir() / name;

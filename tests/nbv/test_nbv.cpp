@@ -15,6 +15,7 @@
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/spatial/ray_scene.hpp"
 #include "nbv_fixtures.hpp"
+#include "support/temp_dir.hpp"
 
 namespace autoscan::nbv {
 namespace {
@@ -474,8 +475,8 @@ TEST(NbvWriters, ViewsJsonNrrdAndPng) {
   const PlanResult r = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{},
                                             Pose::look_at(Vec3(2, 0, 0), Vec3::Zero()), o, &s.field);
   ASSERT_FALSE(r.views.empty());
-  const auto dir = std::filesystem::temp_directory_path() / ("autoscan_nbv_writers_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const autoscan::testing::TempDir tmp("nbv_writers");
+  const std::filesystem::path& dir = tmp.path();
   write_views_json(dir / "views.json", r);
   std::ifstream in(dir / "views.json");
   const nlohmann::json j = nlohmann::json::parse(in);

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "autoscan/core/error.hpp"

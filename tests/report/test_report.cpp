@@ -11,6 +11,7 @@
 #include "autoscan/io/image.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/report/report.hpp"
+#include "support/temp_dir.hpp"
 
 using namespace autoscan;
 namespace fs = std::filesystem;
@@ -124,7 +125,8 @@ TEST(Report, Base64MatchesRfc4648) {
 }
 
 TEST(Report, WritesSelfContainedPage) {
-  const fs::path dir = fs::temp_directory_path() / ("autoscan_report_" + std::to_string(::getpid()));
+  const autoscan::testing::TempDir tmp("report");
+  const fs::path& dir = tmp.path();
   fs::remove_all(dir);
   write_synthetic_session(dir);
   const auto r = report::write_report(dir);
@@ -144,7 +146,8 @@ TEST(Report, WritesSelfContainedPage) {
 }
 
 TEST(Report, DecimatesLargeCloudsDeterministically) {
-  const fs::path dir = fs::temp_directory_path() / ("autoscan_report_dec_" + std::to_string(::getpid()));
+  const autoscan::testing::TempDir tmp("report_dec");
+  const fs::path& dir = tmp.path();
   fs::remove_all(dir);
   write_synthetic_session(dir);
   report::ReportOptions o;
@@ -159,7 +162,8 @@ TEST(Report, DecimatesLargeCloudsDeterministically) {
 }
 
 TEST(Report, MissingSessionIsInputError) {
-  const fs::path dir = fs::temp_directory_path() / ("autoscan_report_empty_" + std::to_string(::getpid()));
+  const autoscan::testing::TempDir tmp("report_empty");
+  const fs::path& dir = tmp.path();
   fs::remove_all(dir);
   fs::create_directories(dir);
   EXPECT_THROW(report::write_report(dir), InputError);
@@ -172,7 +176,8 @@ TEST(Report, MissingSessionIsInputError) {
 // The quality certificate (docs/stop-rule.md) heads the page: the verdict, each region and its reason,
 // the result iteration; a session without one says so.
 TEST(Report, ShowsTheQualityCertificate) {
-  const fs::path dir = fs::temp_directory_path() / ("autoscan_report_cert_" + std::to_string(::getpid()));
+  const autoscan::testing::TempDir tmp("report_cert");
+  const fs::path& dir = tmp.path();
   fs::remove_all(dir);
   write_synthetic_session(dir);
   {

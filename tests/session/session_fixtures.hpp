@@ -11,14 +11,14 @@
 #include "autoscan/core/random.hpp"
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/session/session.hpp"
+#include "support/temp_dir.hpp"
 
 namespace autoscan::test {
 
+/// A path for a new session directory (not created), below the test process's scratch root
+/// (removed when the process exits: support/temp_dir.hpp).
 inline std::filesystem::path fresh_dir(const std::string& name) {
-  const auto d =
-      std::filesystem::temp_directory_path() / ("autoscan_session_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  return d;
+  return testing::scratch_dir("session_" + name, false);
 }
 
 /// Points of the sphere of radius 0.25 (centred at the origin) facing `from`, jittered by `noise`.

@@ -3,6 +3,8 @@
 // measurement quality, against the plain average as the baseline.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "autoscan/consolidate/consolidate.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/io/mesh_io.hpp"

@@ -12,6 +12,7 @@
 #include "autoscan/simulation/bench.hpp"
 #include "autoscan/simulation/scannable.hpp"
 #include "autoscan/simulation/simulate.hpp"
+#include "support/temp_dir.hpp"
 
 using namespace autoscan;
 namespace fs = std::filesystem;
@@ -46,11 +47,9 @@ TriangleMesh capsule_like() {
   return m;
 }
 
-fs::path fresh(const std::string& name) {
-  const auto d = fs::temp_directory_path() / ("autoscan_sim_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
-}
+// A path for a new output directory (not created) below the test process's scratch root, removed
+// when the process exits (support/temp_dir.hpp).
+fs::path fresh(const std::string& name) { return autoscan::testing::scratch_dir("sim_" + name, false); }
 
 nlohmann::json figures(const fs::path& dir) {
   auto s = nlohmann::json::parse(read_text_file(dir / "session.json"));

@@ -1,5 +1,7 @@
 #include "autoscan/core/json_io.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
 

@@ -4,7 +4,7 @@
 // the file or option, never a raw nlohmann exception (docs/architecture.md, Conventions).
 #include <filesystem>
 #include <initializer_list>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <string_view>
 

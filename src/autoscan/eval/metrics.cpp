@@ -7,10 +7,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/html.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/eval/mesh_distance.hpp"
@@ -249,31 +251,6 @@ void write_histogram_csv(const std::filesystem::path& path, const ErrorHistogram
   write_text_atomic(path, text);
 }
 
-namespace {
-std::string xml_escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        o += "&amp;";
-        break;
-      case '<':
-        o += "&lt;";
-        break;
-      case '>':
-        o += "&gt;";
-        break;
-      case '"':
-        o += "&quot;";
-        break;
-      default:
-        o += c;
-    }
-  }
-  return o;
-}
-}  // namespace
-
 void write_histogram_svg(const std::filesystem::path& path,
                          const std::vector<std::pair<std::string, ErrorHistogram>>& series, const std::string& title) {
   AUTOSCAN_REQUIRE(!series.empty(), "{}: no histogram to draw", path.string());
@@ -302,7 +279,7 @@ void write_histogram_svg(const std::filesystem::path& path,
                    W, H);
   o << fmt::format(R"(<text x="{}" y="22" text-anchor="middle" font-size="14">{}</text>)"
                    "\n",
-                   W / 2, xml_escape(title));
+                   W / 2, escape_html(title));
   // Y grid and labels.
   for (int t = 0; t <= 5; ++t) {
     const double v = top * t / 5, y = up + ph * (1 - v / top);
@@ -323,7 +300,7 @@ void write_histogram_svg(const std::filesystem::path& path,
       o << fmt::format(
           R"(<rect x="{:.1f}" y="{:.1f}" width="{:.1f}" height="{:.1f}" fill="{}"><title>{}: {:.2f}%</title></rect>)"
           "\n",
-          x, up + ph - hh, bar, hh, palette[si % 10], xml_escape(series[si].first), 100 * h.share[b]);
+          x, up + ph - hh, bar, hh, palette[si % 10], escape_html(series[si].first), 100 * h.share[b]);
     }
   }
   // X labels: bin edges as a fraction of the diagonal (every other edge when crowded).
@@ -353,7 +330,7 @@ void write_histogram_svg(const std::filesystem::path& path,
                      x, y - 9 - 14.0 * static_cast<double>(si / 4), palette[si % 10]);
     o << fmt::format(R"(<text x="{:.1f}" y="{:.1f}">{} (beyond: {:.1f}%)</text>)"
                      "\n",
-                     x + 14, y - 14.0 * static_cast<double>(si / 4), xml_escape(series[si].first),
+                     x + 14, y - 14.0 * static_cast<double>(si / 4), escape_html(series[si].first),
                      100 * series[si].second.overflow);
   }
   o << "</svg>\n";

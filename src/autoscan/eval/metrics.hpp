@@ -14,7 +14,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -51,6 +51,9 @@ struct DistanceStats {
   nlohmann::json to_json() const;
 };
 /// Linear-interpolated percentiles etc. of `d` (any order); all zero when empty.
+///
+/// @param[in] d  #D distances (any order)
+/// @return count = #D and the statistics of the #D values
 DistanceStats distance_stats(std::vector<double> d);
 
 /// Error histogram (Figure 9): share of samples whose distance falls in [edges[i], edges[i+1]).
@@ -63,6 +66,11 @@ struct ErrorHistogram {
   double diagonal = 1;  ///< the truth diagonal the edges were scaled by
   nlohmann::json to_json() const;
 };
+/// @param[in] distances     #D absolute distances
+/// @param[in] bins          B >= 1
+/// @param[in] max_distance  upper edge of the last bin, as a fraction of `diagonal`
+/// @param[in] diagonal      the truth's diagonal
+/// @return edges (B + 1), share and counts (B each), and the overflow beyond edges[B]
 ErrorHistogram make_histogram(const std::vector<double>& distances, int bins, double max_distance, double diagonal);
 
 struct EvalResult {
@@ -81,6 +89,11 @@ struct EvalResult {
 /// Compares a reconstructed mesh with the ground truth. The reconstruction need not be closed.
 /// Throws InputError for empty or zero-area meshes, tau <= 0, samples == 0, bins < 1 or
 /// histogram_max <= 0.
+///
+/// @param[in] recon  #V by 3 vertices, #F triangles (need not be closed)
+/// @param[in] truth  #Vt by 3 vertices, #Ft triangles
+/// @return accuracy and completeness over options.samples samples each, recon_faces = #F,
+///         truth_faces = #Ft
 EvalResult evaluate_mesh(const TriangleMesh& recon, const TriangleMesh& truth, const EvalOptions& options = {});
 
 /// Accuracy of a point cloud (e.g. the scanned points) against the truth.
@@ -95,10 +108,16 @@ struct CloudEvalResult {
   double seconds = 0;
   nlohmann::json to_json() const;
 };
+/// @param[in] cloud  #P points
+/// @param[in] truth  #Vt by 3 vertices, #Ft triangles
+/// @return accuracy over the #P points (points = #P), coverage over options.samples truth samples
 CloudEvalResult evaluate_cloud(const PointCloud& cloud, const TriangleMesh& truth, const EvalOptions& options = {});
 
 /// Share of `samples` uniform truth samples (seeded) within tau × diagonal(truth) of any point of
 /// `scanned`. 0 for an empty cloud.
+///
+/// @param[in] scanned  #P points
+/// @param[in] truth    #Vt by 3 vertices, #Ft triangles
 double coverage(const PointCloud& scanned, const TriangleMesh& truth, double tau = 0.005, std::size_t samples = 200000,
                 std::uint64_t seed = 1);
 
@@ -111,6 +130,9 @@ struct CoverageSplit {
   double scannable_share = 0;     ///< share of truth samples within tau of `reference`
   double scannable_coverage = 0;  ///< share of the scannable samples within tau of `scanned` (1 if none)
 };
+/// @param[in] scanned    #P points
+/// @param[in] reference  #R points: what a scanner can capture at all
+/// @param[in] truth      #Vt by 3 vertices, #Ft triangles
 CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& reference, const TriangleMesh& truth,
                              double tau = 0.005, std::size_t samples = 200000, std::uint64_t seed = 1);
 
@@ -126,6 +148,10 @@ struct ColorError {
   double counted_share = 0;  ///< share of recon's vertices counted
 };
 /// Throws InputError when recon has no vertex colours or truth has no surface colour.
+///
+/// @param[in] recon  #V vertices with #V vertex colours
+/// @param[in] truth  a mesh with surface colour (vertex colours or a texture)
+/// @return statistics over the counted vertices (vertices <= #V)
 ColorError color_error(const TriangleMesh& recon, const TriangleMesh& truth, double max_distance = 0.01);
 
 /// Writes the histogram as CSV: `bin_lo,bin_hi,share,count` then an `overflow` row. Atomic.

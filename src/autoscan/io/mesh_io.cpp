@@ -163,16 +163,21 @@ std::string mtl_diffuse_map(const fs::path& mtl, const std::string& material) {
 
 }  // namespace
 
-TriangleMesh read_mesh(const fs::path& path) {
-  GeometryFile g = read_geometry(path);
-  AUTOSCAN_REQUIRE(!g.faces.empty(), "{}: has no faces ({} vertices): not a mesh (read it as a point cloud)",
-                   path.string(), g.vertices.size());
+TriangleMesh mesh_from_geometry(GeometryFile&& g) {
   TriangleMesh m;
   m.vertices = std::move(g.vertices.positions);
   m.vertex_normals = std::move(g.vertices.normals);
   m.vertex_colors = std::move(g.vertices.colors);
   m.vertex_scalars = std::move(g.vertices.scalars);
   m.faces = std::move(g.faces);
+  return m;
+}
+
+TriangleMesh read_mesh(const fs::path& path) {
+  GeometryFile g = read_geometry(path);
+  AUTOSCAN_REQUIRE(!g.faces.empty(), "{}: has no faces ({} vertices): not a mesh (read it as a point cloud)",
+                   path.string(), g.vertices.size());
+  TriangleMesh m = mesh_from_geometry(std::move(g));  // takes the vertices and faces; the UVs stay
   if (!g.face_uvs.empty() && !g.material_library.empty()) {
     const fs::path mtl = path.parent_path() / g.material_library;
     const std::string map = mtl_diffuse_map(mtl, g.material);

@@ -53,6 +53,13 @@ GeometryFile read_geometry(const std::filesystem::path& path);
 /// targets (fuzz/, docs/reliability.md) and by callers that hold the bytes.
 GeometryFile parse_geometry(const std::string& bytes, FileFormat format, const std::string& name);
 
+/// The triangle mesh of a geometry file: its vertices with their normals, colours and scalars, and
+/// its faces, moved out of `g` (no texture: read_mesh adds an OBJ's). Faces may be empty.
+///
+/// @param[in,out] g  #V vertices, #F triangles; left without them
+/// @return #V by 3 vertices (with #V normals / colours / scalars where `g` had them), #F faces
+TriangleMesh mesh_from_geometry(GeometryFile&& g);
+
 /// Reads a triangle mesh (polygons fan-triangulated; STL vertices welded when bit-identical).
 /// PLY vertex normals, colours (red green blue) and other scalar vertex properties are kept.
 /// An OBJ's vertex colours (`v x y z r g b`) are kept; an OBJ whose faces all carry texture

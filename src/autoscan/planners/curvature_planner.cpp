@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/planners/common.hpp"

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "autoscan/core/error.hpp"

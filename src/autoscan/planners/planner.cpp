@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/planners/baselines.hpp"

@@ -1,5 +1,7 @@
 #include "autoscan/planners/random_planner.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include "autoscan/core/error.hpp"
 #include "autoscan/planners/common.hpp"
 

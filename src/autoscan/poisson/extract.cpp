@@ -118,28 +118,33 @@ void triangulate_cell(int cx, int cy, int cz, const double v[8], double iso, Cel
   }
 }
 
-}  // namespace
-
-TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> seeds, int refine_steps) {
-  const detail::FieldData& F = field.data();
-  const int De = field.finest_depth();
-  const int n = 1 << De;
-  const double iso = F.iso;
-  // Nodes on the faces of the bounding cube count as outside, so that a surface that would leave
-  // the cube (a large hole in the data) is closed along its faces: the mesh is always watertight.
-  auto node_val = [&](int x, int y, int z) {
+// Node values of the finest grid, with the nodes on the faces of the bounding cube counted as
+// outside, so that a surface that would leave the cube (a large hole in the data) is closed along its
+// faces: the mesh is always watertight.
+struct FinestGrid {
+  const detail::FieldData& F;
+  int De, n;
+  double iso;
+  double node_val(int x, int y, int z) const {
     const double v = F.node_value(De, x, y, z);
     const bool face = x == 0 || y == 0 || z == 0 || x == n || y == n || z == n;
     return face ? std::min(v, iso - 0.25) : v;
-  };
-  auto cell_values = [&](std::uint64_t key, double v[8]) {
+  }
+  void cell_values(std::uint64_t key, double v[8]) const {
     const int x = detail::key_x(key), y = detail::key_y(key), z = detail::key_z(key);
     for (int k = 0; k < 8; ++k) v[k] = node_val(x + (k & 1), y + ((k >> 1) & 1), z + ((k >> 2) & 1));
-  };
-  // Seed cells.
+  }
+};
+
+// The cells crossed by the surface, found from the cells that hold the seeds by crossing every cell
+// face whose corners straddle the iso-value; `values` gets each cell's corner values.
+void crossed_cells(const FinestGrid& G, std::span<const Vec3> seeds, std::vector<std::uint64_t>& cells,
+                   std::vector<std::array<double, 8>>& values) {
+  const int n = G.n;
+  const double iso = G.iso;
   std::vector<std::uint64_t> frontier(seeds.size());
   tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t i) {
-    const Vec3 u = (seeds[i] - F.origin) / F.width;
+    const Vec3 u = (seeds[i] - G.F.origin) / G.F.width;
     int c[3];
     for (int a = 0; a < 3; ++a) c[a] = std::clamp(static_cast<int>(std::floor(u[a] * n)), 0, n - 1);
     frontier[i] = pack(c[0], c[1], c[2]);
@@ -148,8 +153,6 @@ TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> se
   frontier.erase(std::unique(frontier.begin(), frontier.end()), frontier.end());
   KeySet visited;
   for (std::uint64_t k : frontier) visited.insert(k);
-  std::vector<std::uint64_t> cells;
-  std::vector<std::array<double, 8>> values;
   static constexpr int kFace[6][4] = {{0, 2, 4, 6}, {1, 3, 5, 7}, {0, 1, 4, 5},
                                       {2, 3, 6, 7}, {0, 1, 2, 3}, {4, 5, 6, 7}};
   static constexpr int kStep[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
@@ -158,7 +161,7 @@ TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> se
     std::vector<std::uint8_t> mask(frontier.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, frontier.size(), 256), [&](const auto& r) {
       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        cell_values(frontier[i], fv[i].data());
+        G.cell_values(frontier[i], fv[i].data());
         std::uint8_t m = 0;
         for (int f = 0; f < 6; ++f) {
           int above = 0;
@@ -186,6 +189,13 @@ TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> se
     }
     frontier.swap(next);
   }
+}
+
+// The triangles of the crossed cells (in cell order), one vertex per crossed tetrahedron edge placed
+// by linear interpolation of the node values.
+TriangleMesh triangulate_cells(const FinestGrid& G, const std::vector<std::uint64_t>& cells,
+                               const std::vector<std::array<double, 8>>& values) {
+  const double iso = G.iso;
   // Triangles as triples of edge keys, in cell order.
   const std::size_t nc = cells.size();
   std::vector<std::uint32_t> offset(nc + 1, 0);
@@ -208,45 +218,59 @@ TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> se
   TriangleMesh mesh;
   mesh.vertices.resize(uniq.size());
   mesh.faces.resize(nt);
-  const double scale = F.width / n;
+  const double scale = G.F.width / G.n;
   tbb::parallel_for(std::size_t{0}, uniq.size(), [&](std::size_t i) {
     const std::uint64_t e = uniq[i];
     const int dir = int(e & 7);
     const std::uint64_t node = e >> 3;
     const int x = int(node & 0x1fff), y = int((node >> 13) & 0x1fff), z = int((node >> 26) & 0x1fff);
     const int x1 = x + (dir & 1), y1 = y + ((dir >> 1) & 1), z1 = z + ((dir >> 2) & 1);
-    const double fa = node_val(x, y, z), fb = node_val(x1, y1, z1);
+    const double fa = G.node_val(x, y, z), fb = G.node_val(x1, y1, z1);
     const double t = std::clamp((iso - fa) / (fb - fa), 0.0, 1.0);
     const Vec3 g(x + t * (x1 - x), y + t * (y1 - y), z + t * (z1 - z));
-    mesh.vertices[i] = F.origin + scale * g;
+    mesh.vertices[i] = G.F.origin + scale * g;
   });
   tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
     for (int k = 0; k < 3; ++k)
       mesh.faces[t][k] = static_cast<int>(std::lower_bound(uniq.begin(), uniq.end(), edges[t * 3 + k]) - uniq.begin());
   });
-  // Vertex refinement: linear interpolation along an edge is exact only where chi is linear along it
-  // (the grid axes); on the Freudenthal diagonals the trilinear chi is quadratic or cubic, so the
-  // vertex sits off the level set by O(h^2 |Hess chi|). Newton steps along the exact gradient,
-  //   v <- v - (chi(v) - iso) grad chi(v) / |grad chi(v)|^2,
-  // each clamped to half a cell, put it back on chi = iso. Connectivity is unchanged, so the mesh
-  // stays closed and manifold.
-  if (refine_steps > 0) {
-    const double max_step = 0.5 * scale;
-    tbb::parallel_for(std::size_t{0}, mesh.vertices.size(), [&](std::size_t i) {
-      Vec3 v = mesh.vertices[i];
-      for (int it = 0; it < refine_steps; ++it) {
-        const Vec3 g = field.gradient(v);
-        const double g2 = g.squaredNorm();
-        if (!(g2 > 0.0)) break;
-        Vec3 step = (field.value(v) - iso) / g2 * g;
-        const double len = step.norm();
-        if (!std::isfinite(len)) break;
-        if (len > max_step) step *= max_step / len;
-        v -= step;
-      }
-      mesh.vertices[i] = v;
-    });
-  }
+  return mesh;
+}
+
+// Vertex refinement: linear interpolation along an edge is exact only where chi is linear along it
+// (the grid axes); on the Freudenthal diagonals the trilinear chi is quadratic or cubic, so the
+// vertex sits off the level set by O(h^2 |Hess chi|). Newton steps along the exact gradient,
+//   v <- v - (chi(v) - iso) grad chi(v) / |grad chi(v)|^2,
+// each clamped to `max_step` (half a cell), put it back on chi = iso. Connectivity is unchanged, so
+// the mesh stays closed and manifold.
+void refine_vertices(const PoissonField& field, double iso, double max_step, int refine_steps, TriangleMesh& mesh) {
+  tbb::parallel_for(std::size_t{0}, mesh.vertices.size(), [&](std::size_t i) {
+    Vec3 v = mesh.vertices[i];
+    for (int it = 0; it < refine_steps; ++it) {
+      const Vec3 g = field.gradient(v);
+      const double g2 = g.squaredNorm();
+      if (!(g2 > 0.0)) break;
+      Vec3 step = (field.value(v) - iso) / g2 * g;
+      const double len = step.norm();
+      if (!std::isfinite(len)) break;
+      if (len > max_step) step *= max_step / len;
+      v -= step;
+    }
+    mesh.vertices[i] = v;
+  });
+}
+
+}  // namespace
+
+TriangleMesh extract_surface(const PoissonField& field, std::span<const Vec3> seeds, int refine_steps) {
+  const detail::FieldData& F = field.data();
+  const int De = field.finest_depth();
+  const FinestGrid G{F, De, 1 << De, F.iso};
+  std::vector<std::uint64_t> cells;
+  std::vector<std::array<double, 8>> values;
+  crossed_cells(G, seeds, cells, values);
+  TriangleMesh mesh = triangulate_cells(G, cells, values);
+  if (refine_steps > 0) refine_vertices(field, F.iso, 0.5 * (F.width / G.n), refine_steps, mesh);
   std::vector<double> density(mesh.vertices.size());
   tbb::parallel_for(std::size_t{0}, mesh.vertices.size(),
                     [&](std::size_t i) { density[i] = field.density(mesh.vertices[i]); });

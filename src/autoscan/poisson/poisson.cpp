@@ -734,16 +734,26 @@ struct Solver::LevelSystem {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ncells, 256), [&](const auto& r) {
       for (std::size_t c = r.begin(); c != r.end(); ++c) {
         double* M = &cellmat[c * 64];
-        for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
-          const std::uint32_t p = L.samples[j];
-          double w[8];
-          weights(L, s.u[p], w);
+        for_samples_of(static_cast<std::uint32_t>(c), [&](std::uint32_t p, const double* w) {
           const double f = screen_weight(p);
           for (int q = 0; q < 8; ++q)
             for (int k = 0; k < 8; ++k) M[q * 8 + k] += f * w[q] * w[k];
-        }
+        });
       }
     });
+  }
+
+  // Calls fn(p, w) for each sample p in cell c, with w its 8 trilinear weights on the cell's corners
+  // (L.corners[8 c ...]): the one traversal of the screening term (its cell matrices, its product,
+  // its diagonal).
+  template <class Fn>
+  void for_samples_of(std::uint32_t c, Fn&& fn) const {
+    for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
+      const std::uint32_t p = L.samples[j];
+      double w[8];
+      weights(L, s.u[p], w);
+      fn(p, static_cast<const double*>(w));
+    }
   }
 
   const double* stencil_of(std::size_t a, double* out) const {
@@ -786,15 +796,12 @@ struct Solver::LevelSystem {
     else if (omega > 0.0)
       for_cells_coloured(L, [&](std::uint32_t c) {
         const std::int32_t* idx = &L.corners[c * 8];
-        for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
-          const std::uint32_t p = L.samples[j];
-          double w[8];
-          weights(L, s.u[p], w);
+        for_samples_of(c, [&](std::uint32_t p, const double* w) {
           double v = 0.0;
           for (int q = 0; q < 8; ++q) v += w[q] * x[idx[q]];
           const double f = screen_weight(p) * v;
           for (int q = 0; q < 8; ++q) y[idx[q]] += f * w[q];
-        }
+        });
       });
   }
 
@@ -803,13 +810,10 @@ struct Solver::LevelSystem {
     if (!(omega > 0.0)) return;
     for_cells_coloured(L, [&](std::uint32_t c) {
       const std::int32_t* idx = &L.corners[c * 8];
-      for (std::uint32_t j = L.cell_begin[c]; j < L.cell_begin[c + 1]; ++j) {
-        const std::uint32_t p = L.samples[j];
-        double w[8];
-        weights(L, s.u[p], w);
+      for_samples_of(c, [&](std::uint32_t p, const double* w) {
         const double f = screen_weight(p);
         for (int q = 0; q < 8; ++q) diag[idx[q]] += f * w[q] * w[q];
-      }
+      });
     });
   }
 

@@ -9,8 +9,10 @@
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/html.hpp"
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/random.hpp"
+#include "autoscan/core/session_layout.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/report/bundle.hpp"
 
@@ -68,29 +70,6 @@ std::optional<json> read_json_file(const fs::path& p) {
 json number_or_null(const json& obj, const char* key) {
   if (obj.is_object() && obj.contains(key) && obj[key].is_number()) return obj[key];
   return nullptr;
-}
-
-std::string escape_html(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '<':
-        o += "&lt;";
-        break;
-      case '>':
-        o += "&gt;";
-        break;
-      case '&':
-        o += "&amp;";
-        break;
-      case '"':
-        o += "&quot;";
-        break;
-      default:
-        o += c;
-    }
-  }
-  return o;
 }
 
 // JSON embedded in a <script> must not contain "</".
@@ -156,22 +135,140 @@ TriangleMesh cluster_vertices(const TriangleMesh& mesh, std::size_t max_faces) {
   return out;
 }
 
-}  // namespace
+// The iteration's point cloud for the viewer: positions (and the "new" flags), decimated to the
+// display budget by a seeded Bernoulli pick.
+json cloud_entry(const fs::path& file, const ReportOptions& opt, Rng& rng, Buffers& bufs, ReportResult& result) {
+  const PointCloud cloud = io::read_point_cloud(file);
+  const std::size_t n = cloud.size();
+  std::vector<std::size_t> keep;
+  if (n > opt.max_points) {
+    // Deterministic display decimation: a seeded Bernoulli pick with the budget's rate.
+    const double rate = static_cast<double>(opt.max_points) / static_cast<double>(n);
+    for (std::size_t i = 0; i < n; ++i)
+      if (rng.uniform() < rate) keep.push_back(i);
+  } else {
+    keep.resize(n);
+    for (std::size_t i = 0; i < n; ++i) keep[i] = i;
+  }
+  std::vector<float> pos;
+  pos.reserve(keep.size() * 3);
+  std::vector<std::uint8_t> isnew;
+  const auto* newcol = cloud.scalars.find("new");
+  for (auto i : keep) {
+    for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(cloud.positions[i][c]));
+    if (newcol) isnew.push_back((*newcol)[i] > 0.5 ? 1 : 0);
+  }
+  json c{{"count", keep.size()}, {"total", n}, {"positions", bufs.add(pos)}};
+  if (newcol) c["new"] = bufs.add(isnew);
+  result.points_shown += keep.size();
+  return c;
+}
 
-ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
-  const fs::path session_path = dir / "session.json";
-  auto session_opt = read_json_file(session_path);
-  AUTOSCAN_REQUIRE(session_opt.has_value(), "{}: no session.json (is this a session directory?)", dir.string());
-  const json& session = *session_opt;
-  AUTOSCAN_REQUIRE(session.is_object() && session.contains("iterations") && session["iterations"].is_array(),
-                   "{}: missing 'iterations' array", session_path.string());
-  const auto bundle = viewer_bundle();
-  if (bundle.empty())
-    throw RuntimeError("autoscan report: the viewer bundle was not built into this binary (run scripts/setup.sh)");
+// The coloured model (docs/colour.md): its colours ride along as scalars color_r/g/b, so that display
+// decimation averages them like f. False when the coloured mesh does not match `mesh`.
+bool attach_colors(const fs::path& file, TriangleMesh& mesh) {
+  const TriangleMesh cm = io::read_mesh(file);
+  if (cm.vertices.size() != mesh.vertices.size() || cm.vertex_colors.size() != cm.vertices.size()) return false;
+  const char* names[] = {"color_r", "color_g", "color_b"};
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> ch(cm.vertices.size());
+    for (std::size_t v = 0; v < ch.size(); ++v) ch[v] = cm.vertex_colors[v][static_cast<std::size_t>(c)] / 255.0;
+    mesh.vertex_scalars.set(names[c], std::move(ch));
+  }
+  return true;
+}
 
-  Buffers bufs;
+// The iteration's Poisson mesh for the viewer: positions, indices, f/f_g/f_s and the colours,
+// decimated by vertex clustering beyond the display budget. Sets `any_color` for a coloured mesh.
+json mesh_entry(const SessionLayout& layout, int index, const ReportOptions& opt, Buffers& bufs, bool& any_color) {
+  TriangleMesh mesh = io::read_mesh(layout.mesh(index));
+  std::error_code ec;
+  const bool colored = fs::exists(layout.mesh_color(index), ec) && attach_colors(layout.mesh_color(index), mesh);
+  if (mesh.faces.size() > opt.max_mesh_faces) mesh = cluster_vertices(mesh, opt.max_mesh_faces);
+  std::vector<float> pos;
+  pos.reserve(mesh.vertices.size() * 3);
+  for (const auto& v : mesh.vertices)
+    for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(v[c]));
+  std::vector<std::uint32_t> idx;
+  for (const auto& f : mesh.faces)
+    for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(f[c]));
+  json m{{"vertices", mesh.vertices.size()}, {"positions", bufs.add(pos)}, {"indices", bufs.add(idx)}};
+  json scalars = json::object();
+  for (const char* s : {"f", "f_g", "f_s"}) {
+    if (const auto* col = mesh.vertex_scalars.find(s)) {
+      std::vector<float> v(col->begin(), col->end());
+      scalars[s] = bufs.add(v);
+    }
+  }
+  m["scalars"] = scalars;
+  if (colored) {
+    const auto& r = mesh.vertex_scalars.get("color_r");
+    const auto& g = mesh.vertex_scalars.get("color_g");
+    const auto& b = mesh.vertex_scalars.get("color_b");
+    std::vector<float> rgb;
+    rgb.reserve(3 * r.size());
+    for (std::size_t v = 0; v < r.size(); ++v) rgb.insert(rgb.end(), {float(r[v]), float(g[v]), float(b[v])});
+    m["color"] = bufs.add(rgb);
+    any_color = true;
+  }
+  return m;
+}
+
+// What the page shows of the session: the manifest (iterations with their buffers, plots, title)
+// and the binary buffers.
+struct Page {
   json manifest;
-  manifest["title"] = opt.title.empty() ? fs::absolute(dir).filename().string() : opt.title;
+  Buffers bufs;
+  ReportResult result;
+};
+
+// Appends the plot series and the seconds per stage of iteration record `rec` (the k-th).
+void add_plot_points(const json& rec, std::size_t k, json& plots, json& seconds) {
+  plots["mean_f"].push_back(number_or_null(rec, "mean_f"));
+  plots["mean_f_g"].push_back(number_or_null(rec, "mean_f_g"));
+  plots["mean_f_s"].push_back(number_or_null(rec, "mean_f_s"));
+  const json truth = rec.value("truth", json::object());
+  plots["accuracy_mean"].push_back(number_or_null(truth, "accuracy_mean"));
+  plots["completeness_mean"].push_back(number_or_null(truth, "completeness_mean"));
+  plots["coverage"].push_back(number_or_null(truth, "coverage"));
+  if (rec.contains("seconds") && rec["seconds"].is_object()) {
+    for (const auto& [stage, v] : rec["seconds"].items()) {
+      if (!seconds.contains(stage)) seconds[stage] = json::array();
+      while (seconds[stage].size() < k) seconds[stage].push_back(nullptr);
+      seconds[stage].push_back(v.is_number() ? v : json(nullptr));
+    }
+  }
+}
+
+// One iteration of the manifest: its figures and the files of iterations/iter_KKK/ it finds.
+json iteration_entry(const SessionLayout& layout, const json& rec, int index, const ReportOptions& opt, Rng& rng,
+                     Page& page, bool& any_color) {
+  json it;
+  it["index"] = index;
+  it["points"] = number_or_null(rec, "points");
+  it["mean_f"] = number_or_null(rec, "mean_f");
+  std::error_code ec;
+  if (fs::exists(layout.cloud(index), ec))
+    it["cloud"] = cloud_entry(layout.cloud(index), opt, rng, page.bufs, page.result);
+  if (fs::exists(layout.mesh(index), ec)) it["mesh"] = mesh_entry(layout, index, opt, page.bufs, any_color);
+  if (auto views = read_json_file(layout.views(index))) {
+    it["views"] = views->value("views", json::array());
+    if (views->contains("start")) it["start"] = (*views)["start"];
+    it["path_length"] = number_or_null(*views, "path_length");
+  }
+  if (fs::exists(layout.field_slice(index), ec)) {
+    const std::string png = read_text_file(layout.field_slice(index));
+    it["slice"] = "data:image/png;base64," + base64(png.data(), png.size());
+  }
+  if (rec.contains("certificate") && rec["certificate"].is_object()) it["certificate"] = rec["certificate"];
+  return it;
+}
+
+// The manifest and the buffers of every iteration of `session` (session.json of `layout`).
+Page build_page(const SessionLayout& layout, const json& session, const ReportOptions& opt) {
+  Page page;
+  json& manifest = page.manifest;
+  manifest["title"] = opt.title.empty() ? fs::absolute(layout.dir()).filename().string() : opt.title;
   if (session.contains("scanner")) manifest["scanner"] = session["scanner"];
   json iterations = json::array();
   bool any_color = false;  // a coloured model: the viewer opens on it (docs/colour.md)
@@ -180,118 +277,14 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
     plots[k] = json::array();
   json seconds = json::object();
   Rng rng(opt.seed);
-  ReportResult result;
-
   const auto& its = session["iterations"];
   for (std::size_t k = 0; k < its.size(); ++k) {
     const json& rec = its[k];
     const int index = rec.value("index", static_cast<int>(k));
-    const fs::path idir = dir / "iterations" / fmt::format("iter_{:03d}", index);
-    json it;
-    it["index"] = index;
-    it["points"] = number_or_null(rec, "points");
-    it["mean_f"] = number_or_null(rec, "mean_f");
-    plots["mean_f"].push_back(number_or_null(rec, "mean_f"));
-    plots["mean_f_g"].push_back(number_or_null(rec, "mean_f_g"));
-    plots["mean_f_s"].push_back(number_or_null(rec, "mean_f_s"));
+    add_plot_points(rec, k, plots, seconds);
     const json truth = rec.value("truth", json::object());
-    plots["accuracy_mean"].push_back(number_or_null(truth, "accuracy_mean"));
-    plots["completeness_mean"].push_back(number_or_null(truth, "completeness_mean"));
-    plots["coverage"].push_back(number_or_null(truth, "coverage"));
-    if (rec.contains("seconds") && rec["seconds"].is_object()) {
-      for (const auto& [stage, v] : rec["seconds"].items()) {
-        if (!seconds.contains(stage)) seconds[stage] = json::array();
-        while (seconds[stage].size() < k) seconds[stage].push_back(nullptr);
-        seconds[stage].push_back(v.is_number() ? v : json(nullptr));
-      }
-    }
     if (truth.contains("histogram")) manifest["histogram"] = truth["histogram"];
-
-    std::error_code ec;
-    if (fs::exists(idir / "cloud.ply", ec)) {
-      const PointCloud cloud = io::read_point_cloud(idir / "cloud.ply");
-      const std::size_t n = cloud.size();
-      std::vector<std::size_t> keep;
-      if (n > opt.max_points) {
-        // Deterministic display decimation: a seeded Bernoulli pick with the budget's rate.
-        const double rate = static_cast<double>(opt.max_points) / static_cast<double>(n);
-        for (std::size_t i = 0; i < n; ++i)
-          if (rng.uniform() < rate) keep.push_back(i);
-      } else {
-        keep.resize(n);
-        for (std::size_t i = 0; i < n; ++i) keep[i] = i;
-      }
-      std::vector<float> pos;
-      pos.reserve(keep.size() * 3);
-      std::vector<std::uint8_t> isnew;
-      const auto* newcol = cloud.scalars.find("new");
-      for (auto i : keep) {
-        for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(cloud.positions[i][c]));
-        if (newcol) isnew.push_back((*newcol)[i] > 0.5 ? 1 : 0);
-      }
-      json c{{"count", keep.size()}, {"total", n}, {"positions", bufs.add(pos)}};
-      if (newcol) c["new"] = bufs.add(isnew);
-      it["cloud"] = c;
-      result.points_shown += keep.size();
-    }
-    if (fs::exists(idir / "mesh.ply", ec)) {
-      TriangleMesh mesh = io::read_mesh(idir / "mesh.ply");
-      // The coloured model (docs/colour.md): its colours ride along as scalars, so that display
-      // decimation averages them like f.
-      bool colored = false;
-      if (fs::exists(idir / "mesh_color.ply", ec)) {
-        const TriangleMesh cm = io::read_mesh(idir / "mesh_color.ply");
-        if (cm.vertices.size() == mesh.vertices.size() && cm.vertex_colors.size() == cm.vertices.size()) {
-          const char* names[] = {"color_r", "color_g", "color_b"};
-          for (int c = 0; c < 3; ++c) {
-            std::vector<double> ch(cm.vertices.size());
-            for (std::size_t v = 0; v < ch.size(); ++v)
-              ch[v] = cm.vertex_colors[v][static_cast<std::size_t>(c)] / 255.0;
-            mesh.vertex_scalars.set(names[c], std::move(ch));
-          }
-          colored = true;
-        }
-      }
-      if (mesh.faces.size() > opt.max_mesh_faces) mesh = cluster_vertices(mesh, opt.max_mesh_faces);
-      std::vector<float> pos;
-      pos.reserve(mesh.vertices.size() * 3);
-      for (const auto& v : mesh.vertices)
-        for (int c = 0; c < 3; ++c) pos.push_back(static_cast<float>(v[c]));
-      std::vector<std::uint32_t> idx;
-      for (const auto& f : mesh.faces)
-        for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(f[c]));
-      json m{{"vertices", mesh.vertices.size()}, {"positions", bufs.add(pos)}, {"indices", bufs.add(idx)}};
-      json scalars = json::object();
-      for (const char* s : {"f", "f_g", "f_s"}) {
-        if (const auto* col = mesh.vertex_scalars.find(s)) {
-          std::vector<float> v(col->begin(), col->end());
-          scalars[s] = bufs.add(v);
-        }
-      }
-      m["scalars"] = scalars;
-      if (colored) {
-        const auto& r = mesh.vertex_scalars.get("color_r");
-        const auto& g = mesh.vertex_scalars.get("color_g");
-        const auto& b = mesh.vertex_scalars.get("color_b");
-        std::vector<float> rgb;
-        rgb.reserve(3 * r.size());
-        for (std::size_t v = 0; v < r.size(); ++v) rgb.insert(rgb.end(), {float(r[v]), float(g[v]), float(b[v])});
-        m["color"] = bufs.add(rgb);
-        any_color = true;
-      }
-      it["mesh"] = m;
-    }
-    if (auto views = read_json_file(idir / "views.json")) {
-      it["views"] = views->value("views", json::array());
-      if (views->contains("start")) it["start"] = (*views)["start"];
-      it["path_length"] = number_or_null(*views, "path_length");
-    }
-    if (fs::exists(idir / "field_slice.png", ec)) {
-      const std::string png = read_text_file(idir / "field_slice.png");
-      it["slice"] = "data:image/png;base64," + base64(png.data(), png.size());
-    }
-    if (rec.contains("certificate") && rec["certificate"].is_object()) it["certificate"] = rec["certificate"];
-    iterations.push_back(it);
+    iterations.push_back(iteration_entry(layout, rec, index, opt, rng, page, any_color));
   }
   for (auto& [stage, v] : seconds.items())
     while (v.size() < its.size()) v.push_back(nullptr);
@@ -299,9 +292,12 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
   manifest["iterations"] = iterations;
   manifest["has_color"] = any_color;
   manifest["plots"] = plots;
-  AUTOSCAN_REQUIRE(!iterations.empty(), "{}: the session has no iterations yet", session_path.string());
+  page.result.iterations = static_cast<int>(iterations.size());
+  return page;
+}
 
-  // Summary table.
+// The summary table of the iterations.
+std::string summary_table(const json& its) {
   std::ostringstream table;
   table << "<table><tr><th>iteration</th><th>points</th><th>views</th><th>mean f</th><th>f_g</th><th>f_s</th>"
            "<th>coverage</th></tr>";
@@ -316,52 +312,64 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
           << num(rec.value("truth", json::object()), "coverage", 3) << "</td></tr>";
   }
   table << "</table>";
-  std::string stop = session.contains("stop_reason") && session["stop_reason"].is_string()
-                         ? session["stop_reason"].get<std::string>()
-                         : "still running";
-  const std::string title = manifest["title"].get<std::string>();
+  return table.str();
+}
 
-  // The quality certificate of the last iteration (docs/stop-rule.md): is the scan done, and what is
-  // missing where, and why.
-  std::ostringstream cert_html;
-  {
-    const json& last = its.back();
-    const json cert = last.contains("certificate") ? last["certificate"] : json(nullptr);
-    cert_html << "<section class=\"certificate\"><h3>Quality certificate</h3>";
-    if (cert.is_object()) {
-      auto pct = [&](const char* key) { return fmt::format("{:.2f} %", 100.0 * cert.value(key, 0.0)); };
-      const bool done = cert.value("done", false);
-      const double missing = cert.value("share_unreachable", 0.0) + cert.value("share_too_noisy", 0.0);
-      const std::string verdict =
-          !done ? "NOT DONE" : missing > 0.0 ? fmt::format("DONE with {:.2f} % missing", 100.0 * missing) : "DONE";
-      cert_html << "<p class=\"verdict " << (done ? "done" : "not-done") << "\">" << verdict
-                << ": " << pct("share_confident") << " of the surface has confidence &ge; "
-                << fmt::format("{:.3f}", cert.value("threshold", 0.0)) << "; views can still improve "
-                << pct("share_improvable") << ", unreachable " << pct("share_unreachable") << ", too noisy "
-                << pct("share_too_noisy") << ", scattered " << pct("share_scattered")
-                << ". Scanner's expected accuracy " << fmt::format("{:.3g}", cert.value("expected_accuracy", 0.0))
-                << ".";
-      if (session.contains("best_iteration") && session["best_iteration"].is_number_integer())
-        cert_html << " Result: iteration " << session["best_iteration"].get<int>() << " (model.ply).";
-      cert_html << "</p><div class=\"scroll\"><table><tr><th>region</th><th>share</th><th>centroid</th>"
-                   "<th>mean f</th><th>reason</th></tr>";
-      for (const auto& r : cert.value("regions", json::array())) {
-        const auto c = r.value("centroid", json::array());
-        cert_html << "<tr><td>" << r.value("id", 0) << "</td><td>"
-                  << fmt::format("{:.2f} %", 100.0 * r.value("share", 0.0)) << "</td><td>"
-                  << (c.size() == 3 ? fmt::format("{:.3f}, {:.3f}, {:.3f}", c[0].get<double>(), c[1].get<double>(),
-                                                  c[2].get<double>())
-                                    : std::string("–"))
-                  << "</td><td>" << fmt::format("{:.3f}", r.value("mean_f", 0.0)) << "</td><td>"
-                  << escape_html(r.value("reason", std::string())) << "</td></tr>";
-      }
-      cert_html << "</table></div>";
-    } else {
-      cert_html << "<p>No certificate (a session written before it).</p>";
-    }
-    cert_html << "</section>\n";
+// The rows of the certificate's regions.
+void certificate_regions(const json& cert, std::ostringstream& cert_html) {
+  cert_html << "<div class=\"scroll\"><table><tr><th>region</th><th>share</th><th>centroid</th>"
+               "<th>mean f</th><th>reason</th></tr>";
+  for (const auto& r : cert.value("regions", json::array())) {
+    const auto c = r.value("centroid", json::array());
+    cert_html << "<tr><td>" << r.value("id", 0) << "</td><td>" << fmt::format("{:.2f} %", 100.0 * r.value("share", 0.0))
+              << "</td><td>"
+              << (c.size() == 3 ? fmt::format("{:.3f}, {:.3f}, {:.3f}", c[0].get<double>(), c[1].get<double>(),
+                                              c[2].get<double>())
+                                : std::string("–"))
+              << "</td><td>" << fmt::format("{:.3f}", r.value("mean_f", 0.0)) << "</td><td>"
+              << escape_html(r.value("reason", std::string())) << "</td></tr>";
   }
+  cert_html << "</table></div>";
+}
 
+// The quality certificate of the last iteration (docs/stop-rule.md): is the scan done, and what is
+// missing where, and why.
+std::string certificate_section(const json& session, const json& its) {
+  std::ostringstream cert_html;
+  const json& last = its.back();
+  const json cert = last.contains("certificate") ? last["certificate"] : json(nullptr);
+  cert_html << "<section class=\"certificate\"><h3>Quality certificate</h3>";
+  if (cert.is_object()) {
+    auto pct = [&](const char* key) { return fmt::format("{:.2f} %", 100.0 * cert.value(key, 0.0)); };
+    const bool done = cert.value("done", false);
+    const double missing = cert.value("share_unreachable", 0.0) + cert.value("share_too_noisy", 0.0);
+    const std::string verdict = !done           ? "NOT DONE"
+                                : missing > 0.0 ? fmt::format("DONE with {:.2f} % missing", 100.0 * missing)
+                                                : "DONE";
+    cert_html << "<p class=\"verdict " << (done ? "done" : "not-done") << "\">" << verdict << ": "
+              << pct("share_confident") << " of the surface has confidence &ge; "
+              << fmt::format("{:.3f}", cert.value("threshold", 0.0)) << "; views can still improve "
+              << pct("share_improvable") << ", unreachable " << pct("share_unreachable") << ", too noisy "
+              << pct("share_too_noisy") << ", scattered " << pct("share_scattered") << ". Scanner's expected accuracy "
+              << fmt::format("{:.3g}", cert.value("expected_accuracy", 0.0)) << ".";
+    if (session.contains("best_iteration") && session["best_iteration"].is_number_integer())
+      cert_html << " Result: iteration " << session["best_iteration"].get<int>() << " (model.ply).";
+    cert_html << "</p>";
+    certificate_regions(cert, cert_html);
+  } else {
+    cert_html << "<p>No certificate (a session written before it).</p>";
+  }
+  cert_html << "</section>\n";
+  return cert_html.str();
+}
+
+// The whole page: header, certificate, viewer, table, plots, the manifest, the buffers, the bundle.
+std::string page_html(const json& session, const Page& page, std::string_view bundle) {
+  const auto& its = session["iterations"];
+  const std::string stop = session.contains("stop_reason") && session["stop_reason"].is_string()
+                               ? session["stop_reason"].get<std::string>()
+                               : "still running";
+  const std::string title = page.manifest["title"].get<std::string>();
   std::ostringstream html;
   html
       << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>autoscan report — "
@@ -369,7 +377,7 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
       << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size() << " iterations · planner "
       << escape_html(session.value("planner", std::string("poisson"))) << " · stop: " << escape_html(stop)
       << "</p></header>\n"
-      << cert_html.str() << "<main><section>\n"
+      << certificate_section(session, its) << "<main><section>\n"
       << "<div class=\"controls\"><label>iteration <input type=\"range\" id=\"iteration\" min=\"0\" step=\"1\"></label>"
       << "<span id=\"iteration-label\"></span></div>\n"
       << "<div class=\"controls\"><label>colour mesh by <select id=\"color-by\"><option value=\"f\">f (confidence)"
@@ -385,17 +393,36 @@ ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
          "</span>views · <span style=\"background:#d97706\"></span>path</span></div>\n"
       << "<div id=\"viewport\"></div>\n</section><aside><h3>Viewing vector field (slice)</h3>"
       << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3><div class=\"scroll\">"
-      << table.str() << "</div>"
+      << summary_table(its) << "</div>"
       << "</aside></main>\n<section style=\"padding:0 12px 12px\"><h3>Plots</h3><div id=\"plots\"></div></section>\n"
-      << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(manifest.dump()) << "</script>\n";
-  for (const auto& [id, b64] : bufs.items)
+      << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(page.manifest.dump())
+      << "</script>\n";
+  for (const auto& [id, b64] : page.bufs.items)
     html << "<script id=\"" << id << "\" type=\"application/octet-stream\">" << b64 << "</script>\n";
   html << "<script>" << script_safe(std::string(bundle)) << "</script>\n</body></html>\n";
+  return html.str();
+}
 
-  result.html = dir / "report.html";
-  const std::string text = html.str();
+}  // namespace
+
+ReportResult write_report(const fs::path& dir, const ReportOptions& opt) {
+  const SessionLayout layout(dir);
+  const fs::path session_path = layout.session_json();
+  auto session_opt = read_json_file(session_path);
+  AUTOSCAN_REQUIRE(session_opt.has_value(), "{}: no session.json (is this a session directory?)", dir.string());
+  const json& session = *session_opt;
+  AUTOSCAN_REQUIRE(session.is_object() && session.contains("iterations") && session["iterations"].is_array(),
+                   "{}: missing 'iterations' array", session_path.string());
+  const auto bundle = viewer_bundle();
+  if (bundle.empty())
+    throw RuntimeError("autoscan report: the viewer bundle was not built into this binary (run scripts/setup.sh)");
+
+  Page page = build_page(layout, session, opt);
+  AUTOSCAN_REQUIRE(page.result.iterations > 0, "{}: the session has no iterations yet", session_path.string());
+  ReportResult result = page.result;
+  result.html = layout.report();
+  const std::string text = page_html(session, page, bundle);
   write_text_atomic(result.html, text);
-  result.iterations = static_cast<int>(iterations.size());
   result.bytes = text.size();
   log::info("report: wrote {} ({} iterations, {:.1f} MB)", result.html.string(), result.iterations,
             static_cast<double>(text.size()) / 1e6);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <numeric>
 
 #include "autoscan/core/error.hpp"
@@ -120,22 +121,11 @@ Certificate certificate_from_json(const json& j, const std::string& what) {
   return c;
 }
 
-Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
-                                const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
-                                const Certificate* previous) {
-  Certificate c;
-  c.iteration = iteration;
-  // The scanner's expected accuracy: its noise model's σ at the optimal distance d_o (§5.1), normal
-  // incidence.
-  c.expected_accuracy = scanner.noise.magnitude * scanner.noise.depth_sigma *
-                        scanner.relative_depth_sigma(scanner.optimal_distance(), 1.0);
-  const std::size_t nv = mesh.vertices.size();
-  if (mesh.faces.empty() || nv == 0) {
-    c.threshold = options.confidence;
-    return c;
-  }
+namespace {
 
-  // f per vertex: the mesh's own column, or the nearest iso-point's.
+// f per vertex of `mesh` in [0, 1]: the mesh's own column "f", or the nearest iso-point's.
+std::vector<double> vertex_confidence(const TriangleMesh& mesh, const PointCloud& iso_points) {
+  const std::size_t nv = mesh.vertices.size();
   std::vector<double> f(nv, 0.0);
   if (const auto* mf = mesh.vertex_scalars.find("f"); mf && mf->size() == nv) {
     f = *mf;
@@ -146,19 +136,31 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     for (std::size_t i = 0; i < nv; ++i) f[i] = (*isof)[idx[i]];
   }
   for (double& x : f) x = std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : 0.0;
+  return f;
+}
 
-  // The threshold: min(confidence, confidence_ratio · p75 of f).
-  {
-    std::vector<double> sorted = f;
-    const auto q = static_cast<std::ptrdiff_t>(0.75 * static_cast<double>(sorted.size() - 1));
-    std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
-    const double p75 = sorted[static_cast<std::size_t>(q)];
-    c.threshold = options.confidence_ratio > 0.0 ? std::min(options.confidence, options.confidence_ratio * p75)
-                                                 : options.confidence;
-  }
+// The threshold: min(confidence, confidence_ratio · p75 of f).
+double confidence_threshold(const std::vector<double>& f, const StopOptions& options) {
+  std::vector<double> sorted = f;
+  const auto q = static_cast<std::ptrdiff_t>(0.75 * static_cast<double>(sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
+  const double p75 = sorted[static_cast<std::size_t>(q)];
+  return options.confidence_ratio > 0.0 ? std::min(options.confidence, options.confidence_ratio * p75)
+                                        : options.confidence;
+}
 
-  // Low triangles, joined through shared vertices.
-  const std::size_t nf = mesh.faces.size();
+// A connected set of low triangles: its area, area-weighted f and centroid, and its vertices.
+struct LowComponent {
+  double area = 0, fa = 0;
+  Vec3 centroid = Vec3::Zero();
+  std::vector<int> vertices;
+};
+
+// The triangles whose mean f is below c.threshold, joined through shared vertices into components
+// (union-find). Sets c.surface_area, c.edge_length; `low_area` is the area of all low triangles.
+std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::vector<double>& f, Certificate& c,
+                                         double& low_area) {
+  const std::size_t nv = mesh.vertices.size(), nf = mesh.faces.size();
   std::vector<double> area(nf), face_f(nf);
   std::vector<char> low(nf, 0);
   std::vector<int> parent(nv);
@@ -185,16 +187,10 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     }
   }
   c.edge_length = edge_sum / (3.0 * static_cast<double>(nf));
-  if (c.surface_area <= 0.0) return c;
-
-  struct Acc {
-    double area = 0, fa = 0;
-    Vec3 centroid = Vec3::Zero();
-    std::vector<int> vertices;
-  };
   std::vector<int> slot(nv, -1);
-  std::vector<Acc> acc;
-  double low_area = 0.0;
+  std::vector<LowComponent> acc;
+  low_area = 0.0;
+  if (c.surface_area <= 0.0) return acc;
   for (std::size_t t = 0; t < nf; ++t) {
     if (!low[t]) continue;
     const auto& tri = mesh.faces[t];
@@ -203,7 +199,7 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
       slot[static_cast<std::size_t>(root)] = static_cast<int>(acc.size());
       acc.emplace_back();
     }
-    Acc& a = acc[static_cast<std::size_t>(slot[static_cast<std::size_t>(root)])];
+    LowComponent& a = acc[static_cast<std::size_t>(slot[static_cast<std::size_t>(root)])];
     const Vec3 centre =
         (mesh.vertices[static_cast<std::size_t>(tri[0])] + mesh.vertices[static_cast<std::size_t>(tri[1])] +
          mesh.vertices[static_cast<std::size_t>(tri[2])]) /
@@ -214,30 +210,41 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     low_area += area[t];
     for (int v : tri) a.vertices.push_back(v);
   }
-  c.share_confident = 1.0 - low_area / c.surface_area;
+  return acc;
+}
 
-  // Data presence: a consolidated point within two sample spacings (or two mesh edges) of a vertex.
-  std::optional<spatial::KdTree> data_tree;
-  double data_radius = 0.0;
-  if (!consolidated.empty()) {
-    data_tree.emplace(std::span<const Vec3>(consolidated.positions));
-    std::vector<double> spacing;
-    const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
-    std::size_t idx[2];
-    double d2[2];
-    for (std::size_t i = 0; i < consolidated.size(); i += step)
-      if (data_tree->knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
-    double s = 0.0;
-    if (!spacing.empty()) {
-      std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
-                       spacing.end());
-      s = spacing[spacing.size() / 2];
-    }
-    data_radius = 2.0 * std::max(s, c.edge_length);
+// Data presence: a consolidated point within `radius` (two sample spacings, or two mesh edges) of a
+// vertex. No tree when there is no consolidated point.
+struct DataPresence {
+  std::optional<spatial::KdTree> tree;
+  double radius = 0.0;
+};
+
+DataPresence data_presence(const PointCloud& consolidated, double edge_length) {
+  DataPresence data;
+  if (consolidated.empty()) return data;
+  data.tree.emplace(std::span<const Vec3>(consolidated.positions));
+  std::vector<double> spacing;
+  const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
+  std::size_t idx[2];
+  double d2[2];
+  for (std::size_t i = 0; i < consolidated.size(); i += step)
+    if (data.tree->knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
+  double s = 0.0;
+  if (!spacing.empty()) {
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
+    s = spacing[spacing.size() / 2];
   }
+  data.radius = 2.0 * std::max(s, edge_length);
+  return data;
+}
 
+// The components large enough to be regions (the others add to c.share_scattered), with their
+// extent and data presence; `region_vertices` gets each region's sorted vertex ids.
+std::vector<CertificateRegion> measure_regions(std::vector<LowComponent>& acc, const TriangleMesh& mesh,
+                                               const DataPresence& data, const StopOptions& options, Certificate& c,
+                                               std::vector<std::vector<int>>& region_vertices) {
   std::vector<CertificateRegion> regions;
-  std::vector<std::vector<int>> region_vertices;
   for (auto& a : acc) {
     const double share = a.area / c.surface_area;
     if (share < options.min_region_share || a.area <= 0.0) {
@@ -255,10 +262,10 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     for (int v : a.vertices) {
       const Vec3& p = mesh.vertices[static_cast<std::size_t>(v)];
       r.radius = std::max(r.radius, (p - r.centroid).norm());
-      if (data_tree) {
+      if (data.tree) {
         double d2 = 0.0;
-        data_tree->nearest(p, &d2);
-        if (d2 <= data_radius * data_radius) ++near_data;
+        data.tree->nearest(p, &d2);
+        if (d2 <= data.radius * data.radius) ++near_data;
       }
     }
     r.has_data = 2 * near_data >= a.vertices.size();
@@ -266,9 +273,14 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     regions.push_back(std::move(r));
     region_vertices.push_back(std::move(a.vertices));
   }
+  return regions;
+}
 
-  // Tracking: each region is matched to the previous iteration's region nearest to it whose extent
-  // overlaps it.
+// Tracking: each region is matched to the previous iteration's region nearest to it whose extent
+// overlaps it; its stalls, ignored rounds and reason follow. Sets c.regions_aimed_before,
+// c.regions_improved and c.stalled_rounds.
+void track_regions(std::vector<CertificateRegion>& regions, const Certificate* previous, const StopOptions& options,
+                   Certificate& c) {
   std::vector<char> prev_not_improved(previous ? previous->regions.size() : 0, 0);
   for (auto& r : regions) {
     if (previous) {
@@ -305,11 +317,15 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
         if (!prev_not_improved[i]) ++c.regions_improved;
       }
   }
-
   const bool stalled_round = c.regions_aimed_before > 0 && c.regions_improved == 0;
   c.stalled_rounds = stalled_round ? (previous ? previous->stalled_rounds : 0) + 1 : 0;
+}
 
-  // Largest first; the runtime look-up of low vertices follows the new ids.
+// The regions into c, largest first, with their shares by reason; the runtime look-up of low
+// vertices follows the new ids.
+void add_regions_by_area(const std::vector<CertificateRegion>& regions,
+                         const std::vector<std::vector<int>>& region_vertices, const TriangleMesh& mesh,
+                         Certificate& c) {
   std::vector<std::size_t> order(regions.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::stable_sort(order.begin(), order.end(),
@@ -329,6 +345,34 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
       c.share_improvable += r.share;
     c.regions.push_back(std::move(r));
   }
+}
+
+}  // namespace
+
+Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
+                                const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
+                                const Certificate* previous) {
+  Certificate c;
+  c.iteration = iteration;
+  // The scanner's expected accuracy: its noise model's σ at the optimal distance d_o (§5.1), normal
+  // incidence.
+  c.expected_accuracy = scanner.noise.magnitude * scanner.noise.depth_sigma *
+                        scanner.relative_depth_sigma(scanner.optimal_distance(), 1.0);
+  if (mesh.faces.empty() || mesh.vertices.empty()) {
+    c.threshold = options.confidence;
+    return c;
+  }
+  const std::vector<double> f = vertex_confidence(mesh, iso_points);
+  c.threshold = confidence_threshold(f, options);
+  double low_area = 0.0;
+  std::vector<LowComponent> acc = low_components(mesh, f, c, low_area);
+  if (c.surface_area <= 0.0) return c;
+  c.share_confident = 1.0 - low_area / c.surface_area;
+  const DataPresence data = data_presence(consolidated, c.edge_length);
+  std::vector<std::vector<int>> region_vertices;
+  std::vector<CertificateRegion> regions = measure_regions(acc, mesh, data, options, c, region_vertices);
+  track_regions(regions, previous, options, c);
+  add_regions_by_area(regions, region_vertices, mesh, c);
   c.done = c.share_improvable < options.remaining_share;
   return c;
 }

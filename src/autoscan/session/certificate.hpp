@@ -13,7 +13,7 @@
 // StopOptions::stalled_rounds rounds in a row; the others are "not_scanned" (no data yet) or
 // "improving" (data, low f, views still help). The rule stops when the area views can still
 // improve (not_scanned + improving) is a small share of the surface.
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -83,6 +83,16 @@ Certificate certificate_from_json(const nlohmann::json& j, const std::string& wh
 /// The certificate of a model: `mesh` with the vertex scalar "f" (or, without it, f of the nearest
 /// of `iso_points`, scalar "f"), `consolidated` the points it was built from (data presence),
 /// `previous` the previous iteration's certificate (with views_aimed filled in), for tracking.
+///
+/// @param[in] iteration     index of the iteration (stored in the certificate)
+/// @param[in] mesh          #V vertices, #F triangles (outward); optional vertex scalar "f" (#V)
+/// @param[in] iso_points    #I points with scalar "f" (#I), used when `mesh` has no "f"
+/// @param[in] consolidated  #C points (data presence; may be empty)
+/// @param[in] scanner       its noise model gives expected_accuracy
+/// @param[in] options       thresholds and settling rules (StopOptions)
+/// @param[in] previous      the previous iteration's certificate, or null
+/// @return  #R regions (largest first, ids 0..#R-1) with low_vertices / low_vertex_region of equal
+///          length (the distinct vertices of all regions); no region for an empty mesh
 Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
                                 const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
                                 const Certificate* previous);
@@ -93,11 +103,18 @@ std::string describe(const Certificate& c, std::size_t max_regions = 8);
 
 /// Counts, per region of `c`, the view targets (Eq. 5's s_k') that lie in it: the nearest
 /// low-confidence vertex of a tracked region is within two mean edge lengths of the target.
+///
+/// @param[in,out] c        its regions' views_aimed (and views_planned = #T) are set
+/// @param[in]     targets  #T view targets
 void count_views_aimed(Certificate& c, const std::vector<Vec3>& targets);
 
 /// Iso-points of regions marked unreachable or too noisy get f = 1 in a copy the planner sees, so
 /// that they draw no more views (the viewing field weighs each iso-point by 1 − f, Eq. 4). Returns
 /// the count changed.
+///
+/// @param[in]     c           a certificate computed in this iteration (with low_vertices)
+/// @param[in,out] iso_points  #I points; scalar "f" (#I) set to 1 where settled
+/// @return the number of iso-points changed, at most #I
 std::size_t mask_settled_regions(const Certificate& c, PointCloud& iso_points);
 
 }  // namespace autoscan::session

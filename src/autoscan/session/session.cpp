@@ -12,12 +12,14 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <regex>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/session_layout.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/session/quality.hpp"
@@ -40,9 +42,6 @@ constexpr std::size_t kIsoLeafSize = 10;
 // Random streams derived from the session seed (independent of restarts and of each other).
 constexpr std::uint64_t kInsertionStream = 0x45713;  // Eq. 6, one sub-stream per scan id
 constexpr std::uint64_t kPlannerStream = 0x9a11e7;   // planner, one sub-stream per iteration
-
-std::string scan_stem(int id) { return fmt::format("scan_{:04d}", id); }
-std::string iter_name(int k) { return fmt::format("iter_{:03d}", k); }
 
 json matrix_json(const Eigen::Isometry3d& T) {
   json m = json::array();
@@ -292,7 +291,7 @@ std::string remaining_rule(const Certificate& certificate, double mean_f, std::o
 
 json to_json(const ScanRecord& r) {
   json j = {{"id", r.id},
-            {"file", "scans/" + scan_stem(r.id) + ".ply"},
+            {"file", SessionLayout::scan_file(r.id)},
             {"points", r.points},
             {"inserted", r.inserted},
             {"quality_refused", r.quality_refused},
@@ -360,7 +359,7 @@ ScanRecord scan_from_json(const json& j, const std::string& what, int expected_i
   r.id = static_cast<int>(integer_in(member(j, "id", what), what + ".id", 0, INT_MAX));
   AUTOSCAN_REQUIRE(r.id == expected_id, "{}.id: scan id {} out of order (expected {})", what, r.id, expected_id);
   if (j.contains("file")) {
-    const std::string file = "scans/" + scan_stem(r.id) + ".ply";
+    const std::string file = SessionLayout::scan_file(r.id);
     AUTOSCAN_REQUIRE(j.at("file").is_string() && j.at("file").get<std::string>() == file, "{}.file: expected \"{}\"",
                      what, file);
   }
@@ -560,7 +559,8 @@ struct Session::Impl {
     if (lock_fd >= 0) ::close(lock_fd);
   }
 
-  fs::path session_json() const { return dir / "session.json"; }
+  SessionLayout layout() const { return SessionLayout(dir); }
+  fs::path session_json() const { return layout().session_json(); }
 
   // The lock is held on an open descriptor of the session directory itself: no file whose deletion
   // would break it (issue 21).
@@ -633,12 +633,12 @@ struct Session::Impl {
   // The result: the best iteration's mesh as model.ply (atomically), when the session stops.
   void write_result_model() const {
     if (best_iteration < 0) return;
-    const fs::path src = dir / "iterations" / iter_name(best_iteration) / "mesh.ply";
+    const fs::path src = layout().mesh(best_iteration);
     std::error_code ec;
     if (!fs::exists(src, ec)) return;
     io::WriteOptions exact;
     exact.double_coordinates = true;
-    io::write_mesh(dir / "model.ply", io::read_mesh(src), exact);
+    io::write_mesh(layout().model(), io::read_mesh(src), exact);
   }
 
   // Sets the registration target and Eq. 6's look-up from a reconstruction.
@@ -844,91 +844,224 @@ struct Session::Impl {
     rec.seconds_insertion = clock.seconds();
     return registered;
   }
-};
 
-Session::Session(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
-Session::Session(Session&&) noexcept = default;
-Session& Session::operator=(Session&&) noexcept = default;
-Session::~Session() = default;
+  // ---- the steps of next_views ----
 
-Session Session::create(const fs::path& dir, const ScannerSpec& scanner, const Rig& rig,
-                        const SessionOptions& options) {
-  scanner.validate("scanner");
-  rig.validate("rig");
-  options.validate();
-  std::error_code ec;
-  AUTOSCAN_REQUIRE(!dir.empty(), "session: no directory given");
-  AUTOSCAN_REQUIRE(!fs::exists(dir / "session.json", ec), "{}: already holds a session (use open to resume)",
-                   dir.string());
-  AUTOSCAN_REQUIRE(!fs::exists(dir, ec) || fs::is_directory(dir, ec), "{}: exists and is not a directory",
-                   dir.string());
-  fs::create_directories(dir / "scans", ec);
-  if (ec) throw RuntimeError(fmt::format("{}: cannot create the session directory: {}", dir.string(), ec.message()));
-  fs::create_directories(dir / "iterations", ec);
-  auto impl = std::make_unique<Impl>();
-  impl->dir = dir;
-  impl->lock();
-  impl->scanner = scanner;
-  impl->rig = rig;
-  impl->options = options;
-  impl->make_planner_object();  // validates the planner name and its options before anything is written
-  impl->persist();
-  return Session(std::move(impl));
-}
+  // The answer of a session that has stopped: the last iteration's reason, no views.
+  NextViews stopped_answer() const {
+    NextViews ans;
+    ans.stopped = true;
+    ans.reason = stop_reason;
+    ans.iteration = iterations.empty() ? -1 : iterations.back().index;
+    if (ans.iteration >= 0) ans.directory = layout().iteration_dir(ans.iteration);
+    return ans;
+  }
 
-Session Session::open(const fs::path& dir) {
-  std::error_code ec;
-  AUTOSCAN_REQUIRE(fs::is_directory(dir, ec), "{}: no such session directory", dir.string());
-  AUTOSCAN_REQUIRE(fs::exists(dir / "session.json", ec), "{}: not a session directory (no session.json)", dir.string());
-  auto impl = std::make_unique<Impl>();
-  impl->dir = dir;
-  impl->lock();
-  const std::string where = (dir / "session.json").string();
-  // 1. The whole file is validated (types, ranges, consistency) before anything is applied or any
-  //    file is touched: a file that cannot be read moves no data (issue 21).
-  SessionFile stored = parse_session_json(read_text_file(dir / "session.json"), where);
-  impl->scanner = std::move(stored.scanner);
-  impl->rig = std::move(stored.rig);
-  impl->options = std::move(stored.options);
-  impl->current_pose = stored.current_pose;
-  impl->views_planned = stored.views_planned;
-  impl->stopped = stored.stopped;
-  impl->stop_reason = std::move(stored.stop_reason);
-  impl->iterations = std::move(stored.iterations);
-  impl->best_iteration = stored.best_iteration;
-  if (impl->best_iteration < 0) impl->update_best();  // a session written before the field
-  std::vector<ScanRecord> records = std::move(stored.scans);
-  impl->make_planner_object();
-  // What the planner fixed at an earlier plan() (an occupancy grid's frame), before the replay below.
-  if (!stored.planner_state.is_null() && impl->planner)
-    impl->planner->restore_state(stored.planner_state, where + ": planner_state");
+  // Iteration k's record: the scans added since the last iteration and their timings.
+  IterationRecord start_iteration(int k) const {
+    IterationRecord it;
+    it.index = k;
+    for (int s = pending_from(); s < static_cast<int>(scans.size()); ++s) it.scans.push_back(s);
+    for (int s : it.scans) {
+      it.seconds["registration"] += scans[s].seconds_registration;
+      it.seconds["insertion"] += scans[s].seconds_insertion;
+    }
+    return it;
+  }
 
-  // 2. Scan files session.json does not name. A crash during add_scan leaves at most the files of the
-  //    next id (written, never acknowledged): those are set aside below. Anything beyond means that
-  //    session.json does not describe this directory (edited, truncated, or an older copy): refused,
-  //    nothing moved.
-  const std::size_t referenced = records.size();
-  std::vector<fs::path> orphans;
-  if (fs::is_directory(dir / "scans", ec)) {
-    static const std::regex pattern(R"(scan_(\d{4,})\.(ply|json))");
-    for (const auto& e : fs::directory_iterator(dir / "scans", ec)) {
-      std::smatch m;
-      const std::string name = e.path().filename().string();
-      if (!std::regex_match(name, m, pattern)) continue;
-      const std::string digits = m[1].str();
-      const std::size_t id = digits.size() > 9 ? std::numeric_limits<std::size_t>::max() : std::stoul(digits);
-      if (id < referenced) continue;
-      AUTOSCAN_REQUIRE(id == referenced,
+  // The reconstruction's figures into the iteration's record.
+  void record_reconstruction(const Reconstruction& rec, IterationRecord& it) const {
+    for (const auto& [stage, s] : rec.seconds) it.seconds[stage] = s;
+    it.raw_points = model.size();
+    it.consolidated_points = rec.consolidated.size();
+    it.mesh_vertices = rec.mesh.vertices.size();
+    it.iso_points = rec.iso_points.size();
+    it.mean_f = rec.mean_f;
+    it.mean_f_g = rec.mean_f_g;
+    it.mean_f_s = rec.mean_f_s;
+    if (it.index > 0) it.delta_mean_f = rec.mean_f - iterations.back().mean_f;
+  }
+
+  // The quality certificate (docs/stop-rule.md), tracked from the previous iteration's.
+  Certificate certify(const Reconstruction& rec, IterationRecord& it) const {
+    Stopwatch cclock;
+    const int k = it.index;
+    std::optional<Certificate> previous;
+    if (k > 0 && iterations.back().certificate.is_object())
+      previous = certificate_from_json(iterations.back().certificate, "previous certificate");
+    Certificate cert = compute_certificate(k, rec.mesh, rec.iso_points, rec.consolidated, scanner, options.stop,
+                                           previous ? &*previous : nullptr);
+    it.seconds["certificate"] = cclock.seconds();
+    return cert;
+  }
+
+  // Why iteration k stops, or "" to plan views: the stop rule (options.stop.rule), then the budgets.
+  std::string stop_reason_of(int k, const Reconstruction& rec, const Certificate& cert) const {
+    std::string reason;
+    if (options.stop.rule == StopRule::paper) {  // §5.3
+      if (k > 0 && confidence_converged(iterations.back().mean_f, rec.mean_f, options.stop_threshold))
+        reason = "converged";
+      else if (k > 0 && options.stop_when_confidence_falls &&
+               iterations.back().mean_f - rec.mean_f >= options.stop_threshold)
+        reason = "confidence_fell";
+    } else {
+      std::optional<double> best_before;
+      for (const auto& prev : iterations) best_before = std::max(best_before.value_or(prev.mean_f), prev.mean_f);
+      reason = remaining_rule(cert, rec.mean_f, best_before, options.stop);
+    }
+    if (reason.empty() && k + 1 >= options.max_iterations)
+      reason = "max_iterations";
+    else if (reason.empty() && views_planned >= options.max_views)
+      reason = "max_views";
+    return reason;
+  }
+
+  // The planner's views from `current` for iteration k, cut to the view budget left; the certificate
+  // counts the views aimed at each of its regions. An empty plan stops the session ("no_views").
+  planners::PlanOutput plan_views(int k, const Pose& current, const Reconstruction& rec, Certificate& cert,
+                                  IterationRecord& it) {
+    Stopwatch clock;
+    planners::ModelState state;
+    state.iteration = k;
+    state.raw = model;
+    state.consolidated = rec.consolidated;
+    state.field = rec.field;
+    state.reference_gradient = rec.reference_gradient;
+    state.mesh = rec.mesh;
+    state.iso_points = rec.iso_points;
+    // Regions that views looked at without improving them draw no more views (docs/stop-rule.md).
+    if (options.stop.rule == StopRule::remaining) {
+      const std::size_t masked = mask_settled_regions(cert, state.iso_points);
+      if (masked > 0)
+        log::info("iteration {}: {} iso-points in unreachable or too noisy regions draw no views", k, masked);
+    }
+    state.mean_f = rec.mean_f;
+    state.scanner = scanner;
+    state.rig = rig;
+    state.acquired_bounds = model.bounds();
+    for (const auto& s : scans) state.scan_poses.push_back(s.registered_pose);
+    Rng rng = Rng(options.seed).stream(kPlannerStream).stream(static_cast<std::uint64_t>(k));
+    planners::PlanOutput plan = planner->plan(state, current, rng);
+    const auto budget = static_cast<std::size_t>(options.max_views - views_planned);
+    if (plan.views.size() > budget) {
+      plan.views.resize(budget);
+      plan.path_length = planners::path_length(rig, current, plan.views);
+    }
+    it.planner_diagnostics = plan.diagnostics;
+    std::vector<Vec3> targets;
+    for (const auto& v : plan.views) targets.push_back(v.target);
+    count_views_aimed(cert, targets);
+    it.seconds["plan"] = clock.seconds();
+    if (plan.views.empty()) it.stop_reason = "no_views";
+    return plan;
+  }
+
+  // Iteration k's artefacts (iterations/iter_KKK/): the model with its new points, the consolidated
+  // points, the mesh (and its coloured copy), the iso-points and the views. Returns the directory.
+  fs::path write_iteration(int k, const Reconstruction& rec, const planners::PlanOutput& plan,
+                           IterationRecord& it) const {
+    Stopwatch wclock;
+    const SessionLayout L = layout();
+    const fs::path idir = L.iteration_dir(k);
+    std::error_code ec;
+    fs::create_directories(idir, ec);
+    if (ec) throw RuntimeError(fmt::format("{}: cannot create: {}", idir.string(), ec.message()));
+    {
+      PointCloud cloud = model;
+      std::vector<double> fresh(cloud.size(), 0.0);
+      for (std::size_t i = model_size_at_last_iteration; i < cloud.size(); ++i) fresh[i] = 1.0;
+      cloud.scalars.set("new", std::move(fresh));
+      io::write_point_cloud(L.cloud(k), cloud);
+    }
+    io::write_point_cloud(L.consolidated(k), rec.consolidated, exact_ply());
+    if (!rec.mesh.empty()) {
+      // Double coordinates: a driver that evaluates the mesh after a restart (the simulator's truth
+      // figures) reads back exactly the mesh of this iteration.
+      io::WriteOptions exact;
+      exact.double_coordinates = true;
+      io::write_mesh(L.mesh(k), rec.mesh, exact);
+      if (rec.surface_colors.size() == rec.mesh.vertices.size()) {
+        // The coloured model (docs/colour.md): the same mesh with the surface colours.
+        TriangleMesh colored;
+        colored.vertices = rec.mesh.vertices;
+        colored.faces = rec.mesh.faces;
+        colored.vertex_normals = rec.mesh.vertex_normals;
+        colored.vertex_colors = rec.surface_colors;
+        io::write_mesh(L.mesh_color(k), colored, exact);
+      }
+    }
+    io::write_point_cloud(L.iso(k), rec.iso_points, exact_ply());
+    json extra = {{"iteration", k},
+                  {"planner", options.planner},
+                  {"stopped", it.stopped},
+                  {"stop_reason", it.stopped ? json(it.stop_reason) : json(nullptr)},
+                  {"mean_f", it.mean_f}};
+    write_text_atomic(L.views(k), planners::views_to_json(plan, extra).dump(1) + "\n");
+    if (plan.write_artifacts) plan.write_artifacts(idir);
+    it.seconds["write"] = wclock.seconds();
+    return idir;
+  }
+
+  // The iteration into the session's state, then session.json (last: an iteration interrupted
+  // before is simply recomputed after open()).
+  void commit_iteration(const IterationRecord& it, const Reconstruction& rec) {
+    views_planned += it.views;
+    stopped = it.stopped;
+    stop_reason = it.stop_reason;
+    iterations.push_back(it);
+    update_best();
+    model_size_at_last_iteration = model.size();
+    set_target(rec.consolidated, rec.iso_points);
+    if (stopped) write_result_model();
+    persist();
+  }
+
+  // ---- the steps of open ----
+
+  // Takes the validated content of session.json; returns its scan records (replayed by replay_scan).
+  std::vector<ScanRecord> apply(SessionFile stored, const std::string& where) {
+    scanner = std::move(stored.scanner);
+    rig = std::move(stored.rig);
+    options = std::move(stored.options);
+    current_pose = stored.current_pose;
+    views_planned = stored.views_planned;
+    stopped = stored.stopped;
+    stop_reason = std::move(stored.stop_reason);
+    iterations = std::move(stored.iterations);
+    best_iteration = stored.best_iteration;
+    if (best_iteration < 0) update_best();  // a session written before the field
+    make_planner_object();
+    // What the planner fixed at an earlier plan() (an occupancy grid's frame), before the replay.
+    if (!stored.planner_state.is_null() && planner)
+      planner->restore_state(stored.planner_state, where + ": planner_state");
+    return std::move(stored.scans);
+  }
+
+  // Scan files session.json does not name. A crash during add_scan leaves at most the files of the
+  // next id (written, never acknowledged): those are returned, to be set aside. Anything beyond means
+  // that session.json does not describe this directory (edited, truncated, or an older copy):
+  // refused, nothing moved.
+  std::vector<fs::path> unacknowledged_scans(std::size_t referenced, const std::string& where) const {
+    std::error_code ec;
+    std::vector<fs::path> orphans;
+    const fs::path scans_dir = layout().scans_dir();
+    if (!fs::is_directory(scans_dir, ec)) return orphans;
+    for (const auto& e : fs::directory_iterator(scans_dir, ec)) {
+      const std::optional<std::size_t> id = SessionLayout::scan_id_of(e.path().filename().string());
+      if (!id || *id < referenced) continue;
+      AUTOSCAN_REQUIRE(*id == referenced,
                        "{}: scans: lists {} scans but {} exists: session.json does not describe the scan files (was "
                        "it edited or replaced?); nothing was moved",
                        where, referenced, e.path().string());
       orphans.push_back(e.path());
     }
+    return orphans;
   }
 
-  // 3. Rebuild the model from the acknowledged scans, exactly as add_scan built it (reads only).
-  for (auto& rec : records) {
-    const fs::path file = dir / "scans" / (scan_stem(rec.id) + ".ply");
+  // Rebuilds the model with one acknowledged scan, exactly as add_scan built it (reads only).
+  void replay_scan(ScanRecord& rec) {
+    std::error_code ec;
+    const fs::path file = layout().scan_ply(rec.id);
     PointCloud scan;
     if (rec.points > 0) {
       AUTOSCAN_REQUIRE(fs::exists(file, ec), "{}: acknowledged scan file is missing", file.string());
@@ -944,62 +1077,121 @@ Session Session::open(const fs::path& dir) {
     AUTOSCAN_REQUIRE(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1)) == rec.inserted,
                      "{}: insertion flags disagree with session.json", file.string());
     // As add_scan computed it (a session written before quality-weighted fusion has no column).
-    if (!scan.empty() && impl->fusion_on())
-      scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, impl->scanner));
+    if (!scan.empty() && fusion_on())
+      scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, scanner));
     else
       scan.scalars.erase(kDepthSigmaColumn);
     PointCloud registered = scan;
     apply_transform(registered, rec.correction);
-    if (impl->planner) {
+    if (planner) {
       // As add_scan showed it to the planner: with the correction of that time.
       if (rec.added_correction.isApprox(rec.correction, 0.0)) {
-        impl->planner->observe_scan(registered, rec.registered_pose);
+        planner->observe_scan(registered, rec.registered_pose);
       } else {
         PointCloud observed = scan;
         apply_transform(observed, rec.added_correction);
-        impl->planner->observe_scan(observed, rec.reported_pose.transformed(rec.added_correction));
+        planner->observe_scan(observed, rec.reported_pose.transformed(rec.added_correction));
       }
     }
-    if (!rec.excluded) impl->append_to_model(scan, registered, keep);
-    impl->reg_samples.push_back(rec.excluded ? PointCloud{} : impl->registration_sample(scan));
-    impl->scans.push_back(std::move(rec));
-  }
-  {
-    // Points inserted before the last iteration: the scans it (and earlier ones) used.
-    const int used = impl->pending_from();
-    std::size_t n = 0;
-    for (int i = 0; i < used && i < static_cast<int>(impl->scans.size()); ++i)
-      if (!impl->scans[static_cast<std::size_t>(i)].excluded) n += impl->scans[static_cast<std::size_t>(i)].inserted;
-    impl->model_size_at_last_iteration = n;
-  }
-  if (!impl->iterations.empty()) {
-    const fs::path idir = dir / "iterations" / iter_name(impl->iterations.back().index);
-    PointCloud consolidated = io::read_point_cloud(idir / "consolidated.ply");
-    PointCloud iso = io::read_point_cloud(idir / "iso.ply");
-    impl->set_target(consolidated, iso);
+    if (!rec.excluded) append_to_model(scan, registered, keep);
+    reg_samples.push_back(rec.excluded ? PointCloud{} : registration_sample(scan));
+    scans.push_back(std::move(rec));
   }
 
-  // 4. Only now, with everything read and consistent, tidy up after a crash: temporary files of the
-  //    session's own atomic writes (in every iteration directory, recorded or not: an interrupted
-  //    next_views leaves them in the one it was writing), then the unacknowledged scan's files.
-  remove_temporaries(dir);
-  remove_temporaries(dir / "scans");
-  if (fs::is_directory(dir / "iterations", ec)) {
-    static const std::regex iter_pattern(R"(iter_\d{3,})");
-    for (const auto& e : fs::directory_iterator(dir / "iterations", ec))
-      if (std::regex_match(e.path().filename().string(), iter_pattern)) remove_temporaries(e.path());
-  }
-  std::sort(orphans.begin(), orphans.end());
-  if (!orphans.empty()) fs::create_directories(dir / "scans" / "orphaned", ec);
-  for (const auto& p : orphans) {
-    fs::path to;
-    for (int k = 0;; ++k) {
-      to = dir / "scans" / "orphaned" / fmt::format("{}.{}", p.filename().string(), k);
-      if (!fs::exists(to, ec)) break;
+  // After the replay: the model size at the last iteration and its registration target.
+  void restore_last_iteration() {
+    // Points inserted before the last iteration: the scans it (and earlier ones) used.
+    const int used = pending_from();
+    std::size_t n = 0;
+    for (int i = 0; i < used && i < static_cast<int>(scans.size()); ++i)
+      if (!scans[static_cast<std::size_t>(i)].excluded) n += scans[static_cast<std::size_t>(i)].inserted;
+    model_size_at_last_iteration = n;
+    if (!iterations.empty()) {
+      const int last = iterations.back().index;
+      PointCloud consolidated = io::read_point_cloud(layout().consolidated(last));
+      PointCloud iso = io::read_point_cloud(layout().iso(last));
+      set_target(consolidated, iso);
     }
-    fs::rename(p, to, ec);
-    log::warn("{}: scan file not acknowledged before an interruption; moved to {}", p.string(), to.string());
   }
+
+  // Tidies up after a crash, with everything read and consistent: temporary files of the session's
+  // own atomic writes (in every iteration directory, recorded or not: an interrupted next_views
+  // leaves them in the one it was writing), then the unacknowledged scan's files (to scans/orphaned/).
+  void tidy_after_crash(std::vector<fs::path> orphans) const {
+    const SessionLayout L = layout();
+    std::error_code ec;
+    remove_temporaries(dir);
+    remove_temporaries(L.scans_dir());
+    if (fs::is_directory(L.iterations_dir(), ec)) {
+      for (const auto& e : fs::directory_iterator(L.iterations_dir(), ec))
+        if (SessionLayout::is_iteration_name(e.path().filename().string())) remove_temporaries(e.path());
+    }
+    std::sort(orphans.begin(), orphans.end());
+    if (!orphans.empty()) fs::create_directories(L.orphaned_dir(), ec);
+    for (const auto& p : orphans) {
+      fs::path to;
+      for (int k = 0;; ++k) {
+        to = L.orphaned_dir() / fmt::format("{}.{}", p.filename().string(), k);
+        if (!fs::exists(to, ec)) break;
+      }
+      fs::rename(p, to, ec);
+      log::warn("{}: scan file not acknowledged before an interruption; moved to {}", p.string(), to.string());
+    }
+  }
+};
+
+Session::Session(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Session::Session(Session&&) noexcept = default;
+Session& Session::operator=(Session&&) noexcept = default;
+Session::~Session() = default;
+
+Session Session::create(const fs::path& dir, const ScannerSpec& scanner, const Rig& rig,
+                        const SessionOptions& options) {
+  scanner.validate("scanner");
+  rig.validate("rig");
+  options.validate();
+  std::error_code ec;
+  AUTOSCAN_REQUIRE(!dir.empty(), "session: no directory given");
+  const SessionLayout layout(dir);
+  AUTOSCAN_REQUIRE(!fs::exists(layout.session_json(), ec), "{}: already holds a session (use open to resume)",
+                   dir.string());
+  AUTOSCAN_REQUIRE(!fs::exists(dir, ec) || fs::is_directory(dir, ec), "{}: exists and is not a directory",
+                   dir.string());
+  fs::create_directories(layout.scans_dir(), ec);
+  if (ec) throw RuntimeError(fmt::format("{}: cannot create the session directory: {}", dir.string(), ec.message()));
+  fs::create_directories(layout.iterations_dir(), ec);
+  auto impl = std::make_unique<Impl>();
+  impl->dir = dir;
+  impl->lock();
+  impl->scanner = scanner;
+  impl->rig = rig;
+  impl->options = options;
+  impl->make_planner_object();  // validates the planner name and its options before anything is written
+  impl->persist();
+  return Session(std::move(impl));
+}
+
+Session Session::open(const fs::path& dir) {
+  std::error_code ec;
+  const SessionLayout layout(dir);
+  AUTOSCAN_REQUIRE(fs::is_directory(dir, ec), "{}: no such session directory", dir.string());
+  AUTOSCAN_REQUIRE(fs::exists(layout.session_json(), ec), "{}: not a session directory (no session.json)",
+                   dir.string());
+  auto impl = std::make_unique<Impl>();
+  impl->dir = dir;
+  impl->lock();
+  const std::string where = layout.session_json().string();
+  // 1. The whole file is validated (types, ranges, consistency) before anything is applied or any
+  //    file is touched: a file that cannot be read moves no data (issue 21).
+  std::vector<ScanRecord> records =
+      impl->apply(parse_session_json(read_text_file(layout.session_json()), where), where);
+  // 2. Scan files session.json does not name (refused, or set aside in step 4).
+  std::vector<fs::path> orphans = impl->unacknowledged_scans(records.size(), where);
+  // 3. Rebuild the model from the acknowledged scans, exactly as add_scan built it (reads only).
+  for (auto& rec : records) impl->replay_scan(rec);
+  impl->restore_last_iteration();
+  // 4. Only now, with everything read and consistent, tidy up after a crash.
+  impl->tidy_after_crash(std::move(orphans));
   return Session(std::move(impl));
 }
 
@@ -1033,9 +1225,8 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
   // Until session.json names it the scan is not acknowledged; open() sets such files aside. A write
   // that fails (a full disk) removes this call's files and changes nothing in memory: a retry does
   // not leave another copy behind.
-  const std::string stem = scan_stem(rec.id);
-  const fs::path ply_path = m.dir / "scans" / (stem + ".ply");
-  const fs::path json_path = m.dir / "scans" / (stem + ".json");
+  const fs::path ply_path = m.layout().scan_ply(rec.id);
+  const fs::path json_path = m.layout().scan_json(rec.id);
   bool wrote_ply = false, wrote_json = false;
   try {
     if (!scan.empty()) {
@@ -1074,102 +1265,21 @@ NextViews Session::next_views() {
 NextViews Session::next_views(const Pose& current) {
   auto& m = *impl_;
   current.validate("current pose");
-  NextViews ans;
-  if (m.stopped) {
-    ans.stopped = true;
-    ans.reason = m.stop_reason;
-    ans.iteration = m.iterations.empty() ? -1 : m.iterations.back().index;
-    if (ans.iteration >= 0) ans.directory = m.dir / "iterations" / iter_name(ans.iteration);
-    return ans;
-  }
+  if (m.stopped) return m.stopped_answer();
   AUTOSCAN_REQUIRE(!m.scans.empty(), "next_views: the session has no scan yet (add the blind scans first)");
   AUTOSCAN_REQUIRE(!m.model.empty(), "next_views: the scans hold no points");
   m.current_pose = current;
   const int k = static_cast<int>(m.iterations.size());
-  IterationRecord it;
-  it.index = k;
-  for (int s = m.pending_from(); s < static_cast<int>(m.scans.size()); ++s) it.scans.push_back(s);
-  for (int s : it.scans) {
-    it.seconds["registration"] += m.scans[s].seconds_registration;
-    it.seconds["insertion"] += m.scans[s].seconds_insertion;
-  }
-
+  IterationRecord it = m.start_iteration(k);
   m.global_registration(it);
   AUTOSCAN_REQUIRE(!m.model.empty(), "next_views: every scan was kept out of the model (see session status)");
 
   auto rec = std::make_shared<Reconstruction>(m.reconstructor(m.model, m.options, m.progress));
-  for (const auto& [stage, s] : rec->seconds) it.seconds[stage] = s;
-  it.raw_points = m.model.size();
-  it.consolidated_points = rec->consolidated.size();
-  it.mesh_vertices = rec->mesh.vertices.size();
-  it.iso_points = rec->iso_points.size();
-  it.mean_f = rec->mean_f;
-  it.mean_f_g = rec->mean_f_g;
-  it.mean_f_s = rec->mean_f_s;
-  if (k > 0) it.delta_mean_f = rec->mean_f - m.iterations.back().mean_f;
-
-  // The quality certificate (docs/stop-rule.md), tracked from the previous iteration's.
-  Stopwatch cclock;
-  std::optional<Certificate> previous;
-  if (k > 0 && m.iterations.back().certificate.is_object())
-    previous = certificate_from_json(m.iterations.back().certificate, "previous certificate");
-  Certificate cert = compute_certificate(k, rec->mesh, rec->iso_points, rec->consolidated, m.scanner, m.options.stop,
-                                         previous ? &*previous : nullptr);
-  it.seconds["certificate"] = cclock.seconds();
-
-  // The stop rule (options.stop.rule), then the budgets.
-  if (m.options.stop.rule == StopRule::paper) {  // §5.3
-    if (k > 0 && confidence_converged(m.iterations.back().mean_f, rec->mean_f, m.options.stop_threshold))
-      it.stop_reason = "converged";
-    else if (k > 0 && m.options.stop_when_confidence_falls &&
-             m.iterations.back().mean_f - rec->mean_f >= m.options.stop_threshold)
-      it.stop_reason = "confidence_fell";
-  } else {
-    std::optional<double> best_before;
-    for (const auto& prev : m.iterations) best_before = std::max(best_before.value_or(prev.mean_f), prev.mean_f);
-    it.stop_reason = remaining_rule(cert, rec->mean_f, best_before, m.options.stop);
-  }
-  if (it.stop_reason.empty() && k + 1 >= m.options.max_iterations)
-    it.stop_reason = "max_iterations";
-  else if (it.stop_reason.empty() && m.views_planned >= m.options.max_views)
-    it.stop_reason = "max_views";
-
+  m.record_reconstruction(*rec, it);
+  Certificate cert = m.certify(*rec, it);
+  it.stop_reason = m.stop_reason_of(k, *rec, cert);
   planners::PlanOutput plan;
-  if (it.stop_reason.empty()) {
-    Stopwatch clock;
-    planners::ModelState state;
-    state.iteration = k;
-    state.raw = m.model;
-    state.consolidated = rec->consolidated;
-    state.field = rec->field;
-    state.reference_gradient = rec->reference_gradient;
-    state.mesh = rec->mesh;
-    state.iso_points = rec->iso_points;
-    // Regions that views looked at without improving them draw no more views (docs/stop-rule.md).
-    if (m.options.stop.rule == StopRule::remaining) {
-      const std::size_t masked = mask_settled_regions(cert, state.iso_points);
-      if (masked > 0)
-        log::info("iteration {}: {} iso-points in unreachable or too noisy regions draw no views", k, masked);
-    }
-    state.mean_f = rec->mean_f;
-    state.scanner = m.scanner;
-    state.rig = m.rig;
-    state.acquired_bounds = m.model.bounds();
-    for (const auto& s : m.scans) state.scan_poses.push_back(s.registered_pose);
-    Rng rng = Rng(m.options.seed).stream(kPlannerStream).stream(static_cast<std::uint64_t>(k));
-    plan = m.planner->plan(state, current, rng);
-    const auto budget = static_cast<std::size_t>(m.options.max_views - m.views_planned);
-    if (plan.views.size() > budget) {
-      plan.views.resize(budget);
-      plan.path_length = planners::path_length(m.rig, current, plan.views);
-    }
-    it.planner_diagnostics = plan.diagnostics;
-    std::vector<Vec3> targets;
-    for (const auto& v : plan.views) targets.push_back(v.target);
-    count_views_aimed(cert, targets);
-    it.seconds["plan"] = clock.seconds();
-    if (plan.views.empty()) it.stop_reason = "no_views";
-  }
+  if (it.stop_reason.empty()) plan = m.plan_views(k, current, *rec, cert, it);
   it.views = static_cast<int>(plan.views.size());
   it.path_length = plan.path_length;
   it.stopped = !it.stop_reason.empty();
@@ -1182,55 +1292,10 @@ NextViews Session::next_views(const Pose& current) {
 
   // Artefacts first (iterations/iter_KKK/), session.json last: an interrupted iteration is simply
   // recomputed after open().
-  Stopwatch wclock;
-  const fs::path idir = m.dir / "iterations" / iter_name(k);
-  std::error_code ec;
-  fs::create_directories(idir, ec);
-  if (ec) throw RuntimeError(fmt::format("{}: cannot create: {}", idir.string(), ec.message()));
-  {
-    PointCloud cloud = m.model;
-    std::vector<double> fresh(cloud.size(), 0.0);
-    for (std::size_t i = m.model_size_at_last_iteration; i < cloud.size(); ++i) fresh[i] = 1.0;
-    cloud.scalars.set("new", std::move(fresh));
-    io::write_point_cloud(idir / "cloud.ply", cloud);
-  }
-  io::write_point_cloud(idir / "consolidated.ply", rec->consolidated, exact_ply());
-  if (!rec->mesh.empty()) {
-    // Double coordinates: a driver that evaluates the mesh after a restart (the simulator's truth
-    // figures) reads back exactly the mesh of this iteration.
-    io::WriteOptions exact;
-    exact.double_coordinates = true;
-    io::write_mesh(idir / "mesh.ply", rec->mesh, exact);
-    if (rec->surface_colors.size() == rec->mesh.vertices.size()) {
-      // The coloured model (docs/colour.md): the same mesh with the surface colours.
-      TriangleMesh colored;
-      colored.vertices = rec->mesh.vertices;
-      colored.faces = rec->mesh.faces;
-      colored.vertex_normals = rec->mesh.vertex_normals;
-      colored.vertex_colors = rec->surface_colors;
-      io::write_mesh(idir / "mesh_color.ply", colored, exact);
-    }
-  }
-  io::write_point_cloud(idir / "iso.ply", rec->iso_points, exact_ply());
-  json extra = {{"iteration", k},
-                {"planner", m.options.planner},
-                {"stopped", it.stopped},
-                {"stop_reason", it.stopped ? json(it.stop_reason) : json(nullptr)},
-                {"mean_f", it.mean_f}};
-  write_text_atomic(idir / "views.json", planners::views_to_json(plan, extra).dump(1) + "\n");
-  if (plan.write_artifacts) plan.write_artifacts(idir);
-  it.seconds["write"] = wclock.seconds();
+  const fs::path idir = m.write_iteration(k, *rec, plan, it);
+  m.commit_iteration(it, *rec);
 
-  m.views_planned += it.views;
-  m.stopped = it.stopped;
-  m.stop_reason = it.stop_reason;
-  m.iterations.push_back(it);
-  m.update_best();
-  m.model_size_at_last_iteration = m.model.size();
-  m.set_target(rec->consolidated, rec->iso_points);
-  if (m.stopped) m.write_result_model();
-  m.persist();
-
+  NextViews ans;
   ans.views = std::move(plan.views);
   ans.path_length = plan.path_length;
   ans.stopped = it.stopped;

@@ -6,12 +6,15 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/html.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/session_layout.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/eval/metrics.hpp"
 #include "autoscan/io/mesh_io.hpp"
@@ -222,14 +225,15 @@ std::string line_chart(const std::string& title, const std::string& xlabel, cons
   s << fmt::format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\">",
                    W, H)
     << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>"
-    << fmt::format("<text x=\"{}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>", (W - R + L) / 2, title)
+    << fmt::format("<text x=\"{}\" y=\"18\" text-anchor=\"middle\" font-size=\"14\">{}</text>", (W - R + L) / 2,
+                   escape_html(title))
     << fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\"/>", L, H - B, W - R, H - B)
     << fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"#888\"/>", L, T, L, H - B)
     << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"12\">{}</text>", (W - R + L) / 2, H - 8,
-                   xlabel)
+                   escape_html(xlabel))
     << fmt::format(
            "<text x=\"14\" y=\"{}\" font-size=\"12\" transform=\"rotate(-90 14 {})\" text-anchor=\"middle\">{}</text>",
-           (H - B + T) / 2, (H - B + T) / 2, ylabel);
+           (H - B + T) / 2, (H - B + T) / 2, escape_html(ylabel));
   for (double y : {lo, (lo + hi) / 2, hi})
     s << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"10\">{:.4g}</text>", L - 4, py(y) + 4, y);
   for (double x : xs)
@@ -246,7 +250,8 @@ std::string line_chart(const std::string& title, const std::string& xlabel, cons
     }
     s << fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"2\"/>", pts, c)
       << fmt::format("<rect x=\"{}\" y=\"{}\" width=\"10\" height=\"10\" fill=\"{}\"/>", W - R + 10, T + 16 * k, c)
-      << fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{}</text>", W - R + 24, T + 16 * k + 9, series[k].first);
+      << fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"11\">{}</text>", W - R + 24, T + 16 * k + 9,
+                     escape_html(series[k].first));
   }
   s << "</svg>\n";
   return s.str();
@@ -444,7 +449,7 @@ void Collector::iteration_figures(const std::string& m, double n, const std::str
     std::vector<double> cf, er;
     for (const auto& j : jobs_) {
       if (j.model != m || j.noise != n || j.planner != p || j.seed != g_.seeds.front()) continue;
-      const fs::path sp = dir_ / "runs" / j.name / "session.json";
+      const fs::path sp = SessionLayout(dir_ / "runs" / j.name).session_json();
       std::error_code ec;
       if (!finished(dir_, j) || !fs::exists(sp, ec)) continue;
       const json sj = json::parse(read_text_file(sp), nullptr, false);

@@ -6,7 +6,7 @@
 // parallel or a cluster job array; `collect` merges whatever results exist into tables (CSV, JSON,
 // Markdown) and plots (SVG).
 #include <filesystem>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 

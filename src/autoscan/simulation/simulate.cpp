@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <regex>
 #include <set>
@@ -9,6 +10,7 @@
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/session_layout.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/planners/planner.hpp"
@@ -417,7 +419,7 @@ class Loop {
     }
     TriangleMesh loaded;
     if (!mesh) {
-      const fs::path p = dir_ / "iterations" / fmt::format("iter_{:03d}", last.index) / "mesh.ply";
+      const fs::path p = SessionLayout(dir_).mesh(last.index);
       if (fs::exists(p)) loaded = io::read_mesh(p);
       mesh = &loaded;
     }
@@ -537,7 +539,7 @@ class Loop {
       const auto& last = s.iterations().back();
       if (last.stopped) return;
       const int k = last.index;
-      const fs::path vpath = dir_ / "iterations" / fmt::format("iter_{:03d}", k) / "views.json";
+      const fs::path vpath = SessionLayout(dir_).views(k);
       const auto vj = json::parse(read_text_file(vpath), nullptr, false);
       AUTOSCAN_REQUIRE(!vj.is_discarded(), "{}: not valid JSON", vpath.string());
       const auto views = planners::views_from_json(vj, vpath.string());
@@ -599,7 +601,7 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
   AUTOSCAN_REQUIRE(!truth_in.empty(), "simulate: the mesh has no faces");
   truth_in.validate("simulate: mesh");
   std::error_code ec;
-  AUTOSCAN_REQUIRE(!fs::exists(out / "session.json", ec) && !fs::exists(out / kSimFile, ec),
+  AUTOSCAN_REQUIRE(!fs::exists(SessionLayout(out).session_json(), ec) && !fs::exists(out / kSimFile, ec),
                    "{}: already holds a simulation (use --resume to continue it, or another --out)", out.string());
   TriangleMesh truth = truth_in;
   if (options.normalize) normalize_to_benchmark_frame(truth);
@@ -652,8 +654,8 @@ SimulateResult resume(const fs::path& out, const ProgressCallback& progress) {
   SimulateOptions options = recorded_simulation(out).options;
   std::error_code ec;
   TriangleMesh truth = io::read_mesh(out / "truth.ply");
-  if (!fs::exists(out / "session.json", ec)) remove_temporaries(out);
-  auto s = fs::exists(out / "session.json", ec)
+  if (!fs::exists(SessionLayout(out).session_json(), ec)) remove_temporaries(out);
+  auto s = fs::exists(SessionLayout(out).session_json(), ec)
                ? session::Session::open(out)
                : session::Session::create(out, options.scanner, options.rig, options.session);
   Loop loop(out, std::move(truth), options, progress);

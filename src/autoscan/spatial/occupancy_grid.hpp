@@ -5,7 +5,7 @@
 // of the rays. Used by the `sphere` planner (its unknown-voxel gain) and by the `poisson` planner's
 // phantom suppression.
 #include <cstdint>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -32,6 +32,9 @@ class OccupancyGrid {
   void integrate(const Vec3& sensor, const Vec3& point, double stop_short = 0.0);
   /// Unknown voxels seen from `origin` along the unit `dir` with distance in [t_near, t_far],
   /// stopping at the first occupied voxel; appended to `out`.
+  ///
+  /// @param[in,out] out  gets #U linear voxel indices (i + n (j + n k)), in the order the ray
+  ///                     enters them
   void unknown_along(const Vec3& origin, const Vec3& dir, double t_near, double t_far,
                      std::vector<std::uint32_t>& out) const;
   std::size_t count(State s) const;
