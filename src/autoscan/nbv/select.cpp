@@ -8,6 +8,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <queue>
 
 #include "autoscan/core/log.hpp"
@@ -119,49 +120,67 @@ Coverage view_coverage(const Pose& pose, const IsoData& iso, const spatial::KdTr
   return c;
 }
 
-void add_region_views(std::vector<PoolView>& pool, const ViewingField& vf, const IsoData& iso,
-                      const spatial::KdTree& tree, const spatial::RayScene& scene, const ScannerSpec& sc,
-                      const Rig& rig, const NbvOptions& o, NbvDiagnostics& diag) {
+namespace {
+
+/// Connected low-confidence regions (f < region_confidence, at least region_min_points), largest
+/// need first; `need_out` gets each region's need.
+std::vector<std::vector<std::uint32_t>> low_regions(const IsoData& iso, const spatial::KdTree& tree,
+                                                    const NbvOptions& o, std::vector<double>& need_out) {
   std::vector<std::uint32_t> low;
   for (std::uint32_t k = 0; k < iso.size(); ++k)
     if (iso.f[k] < o.region_confidence && iso.need[k] > 0.0) low.push_back(k);
-  if (low.empty()) return;
+  if (low.empty()) return {};
   auto regions = components(low, iso, 3.0 * typical_spacing(iso, tree));
   std::erase_if(regions, [&](const auto& r) { return static_cast<int>(r.size()) < o.region_min_points; });
-  diag.regions = regions.size();
-  // Largest need first; the region id is its rank.
   std::vector<double> need(regions.size(), 0.0);
   for (std::size_t r = 0; r < regions.size(); ++r)
     for (const auto k : regions[r]) need[r] += iso.need[k];
   std::vector<std::size_t> order(regions.size());
   std::iota(order.begin(), order.end(), std::size_t(0));
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return need[a] > need[b]; });
+  std::vector<std::vector<std::uint32_t>> sorted;
+  need_out.clear();
+  for (const auto r : order) {
+    sorted.push_back(std::move(regions[r]));
+    need_out.push_back(need[r]);
+  }
+  return sorted;
+}
 
-  std::vector<std::size_t> positions;
-  for (std::size_t v = 0; v < vf.grid.size(); ++v)
-    if (vf.state[v] == VoxelState::candidate) positions.push_back(v);
-  const double cos_max = std::cos(sc.max_incidence_deg * kDeg);
-  // Best quality any candidate so far measures at each iso-point.
-  std::vector<float> best_q(iso.size(), 0.0f);
-  auto absorb = [&](const Coverage& c) {
-    for (std::size_t t = 0; t < c.index.size(); ++t) best_q[c.index[t]] = std::max(best_q[c.index[t]], c.q[t]);
-  };
-  for (const auto& pv : pool) absorb(pv.coverage);
+/// The search of one region's view: candidate positions scored by what a scanner there measures of
+/// the region's samples (range, incidence and visibility for camera and projector; aimed at the
+/// region, so no frustum test), the best reachable one aimed at a measured surface point.
+struct RegionSearch {
+  const ViewingField& vf;
+  const IsoData& iso;
+  const spatial::KdTree& tree;
+  const spatial::RayScene& scene;
+  const ScannerSpec& sc;
+  const Rig& rig;
+  const NbvOptions& o;
+  NbvDiagnostics& diag;
+  std::vector<std::size_t> positions;  // candidate voxels
+  double cos_max = 0.0;
 
-  for (std::size_t rank = 0; rank < order.size(); ++rank) {
-    const auto& reg = regions[order[rank]];
-    // Covered well enough by the field's candidates? Then the joint choice will weigh it already.
-    double covered = 0.0;
-    for (const auto k : reg) covered += iso.need[k] * best_q[k];
-    if (covered >= 0.5 * need[order[rank]]) continue;
-    ++diag.regions_searched;
-    // Evenly thinned samples of the region and of the candidate positions within reach of it.
-    std::vector<std::uint32_t> samples;
-    const std::size_t sstep = std::max<std::size_t>(1, reg.size() / static_cast<std::size_t>(o.region_samples));
-    for (std::size_t i = 0; i < reg.size(); i += sstep) samples.push_back(reg[i]);
-    Vec3 centre = Vec3::Zero();
-    for (const auto k : samples) centre += iso.p[k];
-    centre /= static_cast<double>(samples.size());
+  /// Quality the scanner at v (projector at `projector`) measures sample k with (0: not at all).
+  double measures(const Vec3& v, const Vec3& projector, std::uint32_t k, std::size_t* nrays) const {
+    const Vec3 d = v - iso.p[k];
+    const double r = d.norm();
+    if (r < sc.near || r > sc.far || iso.n[k].dot(d) < cos_max * r || !lit(projector, iso.p[k], iso.n[k], cos_max))
+      return 0.0;
+    if (nrays) *nrays += 2;
+    if (scene.occluded(v, iso.end[k]) || scene.occluded(projector, iso.end[k])) return 0.0;
+    return quality(sc, r, iso.n[k].dot(d) / r);
+  }
+  Vec3 projector_at(const Vec3& v, const Vec3& centre) const {
+    const Mat3 R = Pose::look_at(v, centre).rotation();
+    const Vec3 right = R.col(0);
+    return v + sc.baseline * right;
+  }
+
+  /// Evenly thinned candidate positions within reach of the samples, scored, best first.
+  std::vector<std::pair<double, std::size_t>> ranked_positions(const std::vector<std::uint32_t>& samples,
+                                                               const Vec3& centre) {
     double spread = 0.0;
     for (const auto k : samples) spread = std::max(spread, (iso.p[k] - centre).norm());
     std::vector<std::size_t> near_pos;
@@ -172,81 +191,109 @@ void add_region_views(std::vector<PoolView>& pool, const ViewingField& vf, const
     const std::size_t pstep = std::max<std::size_t>(1, near_pos.size() / static_cast<std::size_t>(o.region_positions));
     std::vector<std::size_t> tested;
     for (std::size_t i = 0; i < near_pos.size(); i += pstep) tested.push_back(near_pos[i]);
-    // Score: need x quality of the samples a scanner at the position measures (range, incidence,
-    // visibility; aimed at the region, so no frustum test here).
-    std::vector<double> score(tested.size(), 0.0);
+    std::vector<std::pair<double, std::size_t>> scored(tested.size());
     std::vector<std::size_t> rays(tested.size(), 0);
-    auto measures = [&](const Vec3& v, const Vec3& projector, std::uint32_t k, std::size_t* nrays) {
-      const Vec3 d = v - iso.p[k];
-      const double r = d.norm();
-      if (r < sc.near || r > sc.far || iso.n[k].dot(d) < cos_max * r || !lit(projector, iso.p[k], iso.n[k], cos_max))
-        return 0.0;
-      if (nrays) *nrays += 2;
-      if (scene.occluded(v, iso.end[k]) || scene.occluded(projector, iso.end[k])) return 0.0;
-      return quality(sc, r, iso.n[k].dot(d) / r);
-    };
-    auto projector_at = [&](const Vec3& v) -> Vec3 {
-      const Mat3 R = Pose::look_at(v, centre).rotation();
-      const Vec3 right = R.col(0);
-      return v + sc.baseline * right;
-    };
     tbb::parallel_for(std::size_t(0), tested.size(), [&](std::size_t t) {
       const Vec3 v = vf.grid.center(tested[t]);
-      const Vec3 projector = projector_at(v);
+      const Vec3 projector = projector_at(v, centre);
       double s = 0.0;
       for (const auto k : samples) s += iso.need[k] * measures(v, projector, k, &rays[t]);
-      score[t] = s;
+      scored[t] = {s, tested[t]};
     });
     for (const auto r : rays) diag.rays_select += r;
-    std::vector<std::size_t> best(tested.size());
-    std::iota(best.begin(), best.end(), std::size_t(0));
-    std::stable_sort(best.begin(), best.end(), [&](std::size_t a, std::size_t b) { return score[a] > score[b]; });
-    // The best reachable position, aimed at the need-weighted centre of the samples it sees.
-    for (std::size_t b = 0; b < std::min<std::size_t>(best.size(), 16); ++b) {
-      if (!(score[best[b]] > 0.0)) break;
-      const std::size_t voxel = tested[best[b]];
-      const Vec3 v = vf.grid.center(voxel);
-      // Aim at the measured sample nearest to their need-weighted centre (a surface point, as Eq. 5's
-      // s_k': the centre itself may lie in the air of a concave region).
-      const Vec3 projector = projector_at(v);
-      std::vector<std::uint32_t> seen;
-      Vec3 mid = Vec3::Zero();
-      double wsum = 0.0;
-      for (const auto k : samples) {
-        if (!(measures(v, projector, k, nullptr) > 0.0)) continue;
-        seen.push_back(k);
-        mid += iso.need[k] * iso.p[k];
-        wsum += iso.need[k];
-      }
-      if (!(wsum > 0.0)) continue;
-      mid /= wsum;
-      std::uint32_t target = seen.front();
-      for (const auto k : seen)
-        if ((iso.p[k] - mid).squaredNorm() < (iso.p[target] - mid).squaredNorm()) target = k;
-      const Vec3 aim_at = iso.p[target];
-      const double dist = (aim_at - v).norm();
-      if (dist < sc.near || dist > sc.far) continue;
-      PoolView pv;
-      pv.view.pose = Pose::look_at(v, aim_at);
-      std::string why;
-      if (!rig.reachable(pv.view.pose, &why)) {
-        ++diag.dropped_unreachable;
-        log::debug("nbv: region view at voxel {} dropped: {}", voxel, why);
-        continue;
-      }
-      pv.view.target = aim_at;
-      pv.view.voxel = voxel;
-      pv.view.score = vf.g[voxel];
-      pv.view.seed_point = vf.argmax[voxel];
-      pv.view.target_point = static_cast<int>(target);
-      pv.view.region = true;
-      pv.view.region_id = static_cast<int>(rank);
-      pv.coverage = view_coverage(pv.view.pose, iso, tree, scene, sc);
-      if (pv.coverage.index.empty()) continue;
-      absorb(pv.coverage);
-      pool.push_back(std::move(pv));
+    std::stable_sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    return scored;
+  }
+
+  /// The view from `voxel`, aimed at the measured sample nearest to the need-weighted centre of what
+  /// it measures (a surface point, as Eq. 5's s_k': the centre itself may lie in the air of a concave
+  /// region); nothing when it measures nothing, is out of range or unreachable.
+  std::optional<PoolView> aimed(std::size_t voxel, const std::vector<std::uint32_t>& samples, const Vec3& centre,
+                                int rank) {
+    const Vec3 v = vf.grid.center(voxel);
+    const Vec3 projector = projector_at(v, centre);
+    std::vector<std::uint32_t> seen;
+    Vec3 mid = Vec3::Zero();
+    double wsum = 0.0;
+    for (const auto k : samples) {
+      if (!(measures(v, projector, k, nullptr) > 0.0)) continue;
+      seen.push_back(k);
+      mid += iso.need[k] * iso.p[k];
+      wsum += iso.need[k];
+    }
+    if (!(wsum > 0.0)) return std::nullopt;
+    mid /= wsum;
+    std::uint32_t target = seen.front();
+    for (const auto k : seen)
+      if ((iso.p[k] - mid).squaredNorm() < (iso.p[target] - mid).squaredNorm()) target = k;
+    const Vec3 aim_at = iso.p[target];
+    const double dist = (aim_at - v).norm();
+    if (dist < sc.near || dist > sc.far) return std::nullopt;
+    PoolView pv;
+    pv.view.pose = Pose::look_at(v, aim_at);
+    std::string why;
+    if (!rig.reachable(pv.view.pose, &why)) {
+      ++diag.dropped_unreachable;
+      log::debug("nbv: region view at voxel {} dropped: {}", voxel, why);
+      return std::nullopt;
+    }
+    pv.view.target = aim_at;
+    pv.view.voxel = voxel;
+    pv.view.score = vf.g[voxel];
+    pv.view.seed_point = vf.argmax[voxel];
+    pv.view.target_point = static_cast<int>(target);
+    pv.view.region = true;
+    pv.view.region_id = rank;
+    pv.coverage = view_coverage(pv.view.pose, iso, tree, scene, sc);
+    if (pv.coverage.index.empty()) return std::nullopt;
+    return pv;
+  }
+
+  /// The best of the 16 best-scored positions that gives a view.
+  std::optional<PoolView> view_for(const std::vector<std::uint32_t>& reg, int rank) {
+    std::vector<std::uint32_t> samples;  // evenly thinned
+    const std::size_t sstep = std::max<std::size_t>(1, reg.size() / static_cast<std::size_t>(o.region_samples));
+    for (std::size_t i = 0; i < reg.size(); i += sstep) samples.push_back(reg[i]);
+    Vec3 centre = Vec3::Zero();
+    for (const auto k : samples) centre += iso.p[k];
+    centre /= static_cast<double>(samples.size());
+    const auto scored = ranked_positions(samples, centre);
+    for (std::size_t b = 0; b < std::min<std::size_t>(scored.size(), 16); ++b) {
+      if (!(scored[b].first > 0.0)) break;
+      if (auto pv = aimed(scored[b].second, samples, centre, rank)) return pv;
+    }
+    return std::nullopt;
+  }
+};
+
+}  // namespace
+
+void add_region_views(std::vector<PoolView>& pool, const ViewingField& vf, const IsoData& iso,
+                      const spatial::KdTree& tree, const spatial::RayScene& scene, const ScannerSpec& sc,
+                      const Rig& rig, const NbvOptions& o, NbvDiagnostics& diag) {
+  std::vector<double> need;
+  const auto regions = low_regions(iso, tree, o, need);
+  diag.regions = regions.size();
+  if (regions.empty()) return;
+  RegionSearch search{vf, iso, tree, scene, sc, rig, o, diag, {}, std::cos(sc.max_incidence_deg * kDeg)};
+  for (std::size_t v = 0; v < vf.grid.size(); ++v)
+    if (vf.state[v] == VoxelState::candidate) search.positions.push_back(v);
+  // Best quality any candidate so far measures at each iso-point.
+  std::vector<float> best_q(iso.size(), 0.0f);
+  auto absorb = [&](const Coverage& c) {
+    for (std::size_t t = 0; t < c.index.size(); ++t) best_q[c.index[t]] = std::max(best_q[c.index[t]], c.q[t]);
+  };
+  for (const auto& pv : pool) absorb(pv.coverage);
+  for (std::size_t rank = 0; rank < regions.size(); ++rank) {
+    // Covered well enough by the candidates so far? Then the joint choice weighs it already.
+    double covered = 0.0;
+    for (const auto k : regions[rank]) covered += iso.need[k] * best_q[k];
+    if (covered >= 0.5 * need[rank]) continue;
+    ++diag.regions_searched;
+    if (auto pv = search.view_for(regions[rank], static_cast<int>(rank))) {
+      absorb(pv->coverage);
+      pool.push_back(std::move(*pv));
       ++diag.region_views;
-      break;
     }
   }
 }
