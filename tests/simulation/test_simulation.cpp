@@ -178,3 +178,29 @@ TEST(Bench, GridExpandsAndCollectsTables) {
   EXPECT_TRUE(fs::exists(dir / "results.md"));
   fs::remove_all(dir);
 }
+
+// Issue 17 (docs/supports.md): the object stands on a turntable disc; the session removes the disc's
+// points (declared), or finds the plane itself (undeclared); nothing of the disc reaches the model.
+TEST(Simulation, ObjectOnATurntableLeavesNoFixturePointInTheModel) {
+  auto o = small_options();
+  o.rig = simulation::rig_preset("turntable_arm");
+  ASSERT_EQ(o.rig.fixtures.size(), 1u);
+  const auto dir = fresh("turntable");
+  const auto r = simulation::simulate(capsule_like(), dir, o);
+  // The object rests on the disc: its lowest vertex at the support's top.
+  const auto truth = io::read_mesh(dir / "truth.ply");
+  EXPECT_NEAR(truth.bounds().min.z(), simulation::kSupportHeight, 1e-12);
+  EXPECT_GT(r.fixture_points_scanned, 1000u);
+  EXPECT_GE(r.removed_fixture, r.fixture_points_scanned);  // the disc's, and the object's contact rim
+  EXPECT_EQ(r.removed_support_plane, 0u);
+  EXPECT_EQ(r.fixture_points_in_model, 0u);
+  fs::remove_all(dir);
+
+  o.declare_fixtures = false;  // the scanner has the disc, the session must find it
+  const auto dir2 = fresh("turntable_undeclared");
+  const auto u = simulation::simulate(capsule_like(), dir2, o);
+  EXPECT_EQ(u.removed_fixture, 0u);
+  EXPECT_GT(u.removed_support_plane, 1000u);
+  EXPECT_LT(static_cast<double>(u.fixture_points_in_model), 0.001 * static_cast<double>(u.fixture_points_scanned));
+  fs::remove_all(dir2);
+}

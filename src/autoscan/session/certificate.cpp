@@ -37,7 +37,42 @@ int integer(const json& j, const char* key, const std::string& what) {
   return j.at(key).get<int>();
 }
 
+// Two median sample spacings of `consolidated` (over up to 2000 of its points), or two mesh edges.
+double data_radius_of(const spatial::KdTree& tree, const PointCloud& consolidated, double edge_length) {
+  std::vector<double> spacing;
+  const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
+  std::size_t idx[2];
+  double d2[2];
+  for (std::size_t i = 0; i < consolidated.size(); i += step)
+    if (tree.knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
+  double s = 0.0;
+  if (!spacing.empty()) {
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
+    s = spacing[spacing.size() / 2];
+  }
+  return 2.0 * std::max(s, edge_length);
+}
+
 }  // namespace
+
+std::vector<double> vertex_data_support(const TriangleMesh& mesh, const PointCloud& consolidated) {
+  std::vector<double> out(mesh.vertices.size(), 0.0);
+  if (consolidated.empty() || mesh.faces.empty()) return out;
+  double edges = 0.0;
+  for (const auto& f : mesh.faces)
+    for (int k = 0; k < 3; ++k)
+      edges += (mesh.vertices[static_cast<std::size_t>(f[static_cast<std::size_t>(k)])] -
+                mesh.vertices[static_cast<std::size_t>(f[static_cast<std::size_t>((k + 1) % 3)])])
+                   .norm();
+  const spatial::KdTree tree(std::span<const Vec3>(consolidated.positions));
+  const double r = data_radius_of(tree, consolidated, edges / (3.0 * static_cast<double>(mesh.faces.size())));
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    double d2 = 0.0;
+    tree.nearest(mesh.vertices[v], &d2);
+    out[v] = d2 <= r * r ? 1.0 : 0.0;
+  }
+  return out;
+}
 
 json to_json(const Certificate& c) {
   json regions = json::array();
@@ -50,6 +85,7 @@ json to_json(const Certificate& c) {
                        {"mean_f", r.mean_f},
                        {"has_data", r.has_data},
                        {"reason", r.reason},
+                       {"detail", r.detail},
                        {"views_aimed", r.views_aimed},
                        {"stalls", r.stalls},
                        {"ignored", r.ignored},
@@ -110,6 +146,10 @@ Certificate certificate_from_json(const json& j, const std::string& what) {
     r.has_data = e.at("has_data").get<bool>();
     AUTOSCAN_REQUIRE(e.contains("reason") && e.at("reason").is_string(), "{}.reason: expected a string", w);
     r.reason = e.at("reason").get<std::string>();
+    if (e.contains("detail")) {  // absent before supports (issue 17)
+      AUTOSCAN_REQUIRE(e.at("detail").is_string(), "{}.detail: expected a string", w);
+      r.detail = e.at("detail").get<std::string>();
+    }
     r.views_aimed = integer(e, "views_aimed", w);
     r.stalls = integer(e, "stalls", w);
     r.ignored = integer(e, "ignored", w);
@@ -122,7 +162,7 @@ Certificate certificate_from_json(const json& j, const std::string& what) {
 
 Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
                                 const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
-                                const Certificate* previous) {
+                                const Certificate* previous, const SupportContact* contact) {
   Certificate c;
   c.iteration = iteration;
   // The scanner's expected accuracy: its noise model's σ at the optimal distance d_o (§5.1), normal
@@ -221,23 +261,12 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   double data_radius = 0.0;
   if (!consolidated.empty()) {
     data_tree.emplace(std::span<const Vec3>(consolidated.positions));
-    std::vector<double> spacing;
-    const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
-    std::size_t idx[2];
-    double d2[2];
-    for (std::size_t i = 0; i < consolidated.size(); i += step)
-      if (data_tree->knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
-    double s = 0.0;
-    if (!spacing.empty()) {
-      std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
-                       spacing.end());
-      s = spacing[spacing.size() / 2];
-    }
-    data_radius = 2.0 * std::max(s, c.edge_length);
+    data_radius = data_radius_of(*data_tree, consolidated, c.edge_length);
   }
 
   std::vector<CertificateRegion> regions;
   std::vector<std::vector<int>> region_vertices;
+  std::vector<char> on_support;
   for (auto& a : acc) {
     const double share = a.area / c.surface_area;
     if (share < options.min_region_share || a.area <= 0.0) {
@@ -263,6 +292,11 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     }
     r.has_data = 2 * near_data >= a.vertices.size();
     r.expected_accuracy = c.expected_accuracy;
+    std::size_t touching = 0;
+    if (contact)
+      for (int v : a.vertices)
+        if (contact->plane.distance(mesh.vertices[static_cast<std::size_t>(v)]) <= contact->tolerance) ++touching;
+    on_support.push_back(contact && 2 * touching >= a.vertices.size() ? 1 : 0);
     regions.push_back(std::move(r));
     region_vertices.push_back(std::move(a.vertices));
   }
@@ -270,7 +304,8 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   // Tracking: each region is matched to the previous iteration's region nearest to it whose extent
   // overlaps it.
   std::vector<char> prev_not_improved(previous ? previous->regions.size() : 0, 0);
-  for (auto& r : regions) {
+  for (std::size_t ri = 0; ri < regions.size(); ++ri) {
+    auto& r = regions[ri];
     if (previous) {
       double best = std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i < previous->regions.size(); ++i) {
@@ -297,6 +332,10 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     }
     const bool settled_now = r.stalls >= options.stalled_rounds || r.ignored >= options.stalled_rounds;
     r.reason = settled_now ? (r.has_data ? "too_noisy" : "unreachable") : (r.has_data ? "improving" : "not_scanned");
+    if (on_support[ri]) {  // where the object touches its support: no pose sees it
+      r.reason = "unreachable";
+      r.detail = "on the support";
+    }
   }
   if (previous) {
     for (std::size_t i = 0; i < previous->regions.size(); ++i)
@@ -361,8 +400,9 @@ std::string describe(const Certificate& c, std::size_t max_regions) {
   for (std::size_t i = 0; i < c.regions.size() && i < max_regions; ++i) {
     const auto& r = c.regions[i];
     out += fmt::format(
-        "  region {}: {:.2f} % of the surface at ({:.3f}, {:.3f}, {:.3f}), radius {:.3f}, mean f {:.3f}: {}\n", r.id,
-        100.0 * r.share, r.centroid.x(), r.centroid.y(), r.centroid.z(), r.radius, r.mean_f, r.reason);
+        "  region {}: {:.2f} % of the surface at ({:.3f}, {:.3f}, {:.3f}), radius {:.3f}, mean f {:.3f}: {}{}\n", r.id,
+        100.0 * r.share, r.centroid.x(), r.centroid.y(), r.centroid.z(), r.radius, r.mean_f, r.reason,
+        r.detail.empty() ? std::string() : " (" + r.detail + ")");
   }
   if (c.regions.size() > max_regions)
     out += fmt::format("  ... and {} smaller regions\n", c.regions.size() - max_regions);
