@@ -58,7 +58,7 @@ TEST(RigFixtures, BadFixturesAreRefusedNamingTheField) {
   EXPECT_NE(message({{"fixtures", {{{"kind", "mesh"}}}}}).find("needs 'file'"), std::string::npos);
   EXPECT_NE(message({{"fixtures", {{{"kind", "plane"}, {"height", "low"}}}}}).find("'height' must be a number"),
             std::string::npos);
-  EXPECT_NE(message({{"fixtures", {{"kind", "plane"}}}}).find("must be a JSON object"), std::string::npos);
+  EXPECT_NE(message({{"fixtures", json::array({"plane"})}}).find("must be a JSON object"), std::string::npos);
   EXPECT_NE(message({{"fixtures", 3}}).find("'fixtures' must be an array"), std::string::npos);
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/session/certificate.hpp"
@@ -250,7 +251,15 @@ TEST(Supports, CubeOnAPlaneHasAnUnreachableBottomAndReachableOtherFaces) {
   EXPECT_NEAR(c.share_improvable, 1.0 / 6.0, 1e-9);
   // The planner does not chase it: its iso-points get f = 1 in the copy the planner sees.
   PointCloud planner_iso = iso;
-  EXPECT_EQ(mask_settled_regions(c, planner_iso), 81u);
+  EXPECT_GE(mask_settled_regions(c, planner_iso), 81u);
+  const auto& masked_f = planner_iso.scalars.get("f");
+  std::size_t bottom_masked = 0, top_kept = 0;
+  for (std::size_t i = 0; i < iso.size(); ++i) {
+    if (iso.positions[i].z() < 1e-9 && masked_f[i] == 1.0) ++bottom_masked;
+    if (iso.positions[i].z() > 1 - 1e-9 && masked_f[i] == 0.1) ++top_kept;
+  }
+  EXPECT_EQ(bottom_masked, 9u * 9u + 4u * 9u);  // the bottom face, and the sides' bottom rows on it
+  EXPECT_EQ(top_kept, 9u * 9u);
   // The detail survives session.json.
   const auto back = certificate_from_json(to_json(c), "certificate");
   for (std::size_t i = 0; i < c.regions.size(); ++i) EXPECT_EQ(back.regions[i].detail, c.regions[i].detail);
@@ -277,4 +286,24 @@ TEST(Supports, MeshSaysWhichPartDataSupports) {
   }
   EXPECT_EQ(bottom_supported, 0u);  // the middle of the bottom face has no data near it
   EXPECT_EQ(others_unsupported, 0u);
+}
+
+TEST(Supports, AFaceTurnedToTheSupportIsUnreachableOnlyWhenNoViewAboveItSeesIt) {
+  // The cube floating `lift` above the support: its bottom face faces it. At the incidence limit
+  // (75°) and the optimal distance (1.2) the highest view rises −1.2·cos 75° = −0.31 below the face.
+  for (const double lift : {0.2, 0.5}) {
+    TriangleMesh cube = cube_mesh();
+    for (auto& v : cube.vertices) v.z() += lift;
+    PointCloud iso;
+    iso.positions = cube.vertices;
+    iso.scalars.set("f", cube.vertex_scalars.get("f"));
+    const SupportContact contact{SupportPlane{Vec3::UnitZ(), 0.0}, 0.01};
+    const auto c = compute_certificate(0, cube, iso, PointCloud{}, ScannerSpec{}, StopOptions{}, nullptr, &contact);
+    ASSERT_EQ(c.regions.size(), 2u);
+    for (const auto& r : c.regions) {
+      const bool bottom = r.centroid.z() < lift + 0.5;
+      const bool hidden = bottom && lift < 0.31;
+      EXPECT_EQ(r.reason, hidden ? "unreachable" : "not_scanned") << "lift " << lift << ", bottom " << bottom;
+    }
+  }
 }

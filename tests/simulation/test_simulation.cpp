@@ -7,9 +7,11 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/eval/metrics.hpp"
+#include "autoscan/io/mesh_io.hpp"
 #include "autoscan/shapes/primitives.hpp"
 #include "autoscan/shapes/sampling.hpp"
 #include "autoscan/simulation/bench.hpp"
+#include "autoscan/simulation/fixtures.hpp"
 #include "autoscan/simulation/scannable.hpp"
 #include "autoscan/simulation/simulate.hpp"
 

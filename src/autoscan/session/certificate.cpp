@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 
 #include "autoscan/core/error.hpp"
@@ -51,6 +52,23 @@ double data_radius_of(const spatial::KdTree& tree, const PointCloud& consolidate
     s = spacing[spacing.size() / 2];
   }
   return 2.0 * std::max(s, edge_length);
+}
+
+// True when no view of `p` (outward normal `n`) within the scanner's incidence limit, at the optimal
+// distance, lies above the support (where every view must be, Rig::reachable): the direction of the
+// incidence cone that rises most decides.
+bool hidden_by_support(const Vec3& p, const Vec3& n, const SupportContact& contact, const ScannerSpec& scanner) {
+  if (n.squaredNorm() < 1e-24) return false;
+  const Vec3 axis = n.normalized();
+  const double theta = scanner.max_incidence_deg * std::numbers::pi / 180.0;
+  const Vec3 up = contact.plane.normal;
+  Vec3 side = up - up.dot(axis) * axis;  // toward "up" within the cone
+  if (side.norm() < 1e-9) side = axis.unitOrthogonal();
+  side.normalize();
+  const double d = scanner.optimal_distance();
+  const double to_up = std::acos(std::clamp(axis.dot(up), -1.0, 1.0));
+  const Vec3 best = to_up <= theta ? up : Vec3(std::cos(theta) * axis + std::sin(theta) * side);
+  return contact.plane.distance(p + d * best) <= 0.0;
 }
 
 }  // namespace
@@ -264,6 +282,21 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     data_radius = data_radius_of(*data_tree, consolidated, c.edge_length);
   }
 
+  // Vertex normals (the mesh's, or area-weighted from its faces) for the support's visibility test.
+  std::vector<Vec3> normals;
+  if (contact) {
+    if (mesh.vertex_normals.size() == nv) {
+      normals = mesh.vertex_normals;
+    } else {
+      normals.assign(nv, Vec3::Zero());
+      for (const auto& t : mesh.faces) {
+        const Vec3 fn =
+            (mesh.vertices[static_cast<std::size_t>(t[1])] - mesh.vertices[static_cast<std::size_t>(t[0])])
+                .cross(mesh.vertices[static_cast<std::size_t>(t[2])] - mesh.vertices[static_cast<std::size_t>(t[0])]);
+        for (int k = 0; k < 3; ++k) normals[static_cast<std::size_t>(t[static_cast<std::size_t>(k)])] += fn;
+      }
+    }
+  }
   std::vector<CertificateRegion> regions;
   std::vector<std::vector<int>> region_vertices;
   std::vector<char> on_support;
@@ -294,8 +327,12 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
     r.expected_accuracy = c.expected_accuracy;
     std::size_t touching = 0;
     if (contact)
-      for (int v : a.vertices)
-        if (contact->plane.distance(mesh.vertices[static_cast<std::size_t>(v)]) <= contact->tolerance) ++touching;
+      for (int v : a.vertices) {
+        const Vec3& p = mesh.vertices[static_cast<std::size_t>(v)];
+        if (contact->plane.distance(p) <= contact->tolerance ||
+            hidden_by_support(p, normals[static_cast<std::size_t>(v)], *contact, scanner))
+          ++touching;
+      }
     on_support.push_back(contact && 2 * touching >= a.vertices.size() ? 1 : 0);
     regions.push_back(std::move(r));
     region_vertices.push_back(std::move(a.vertices));

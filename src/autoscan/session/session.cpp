@@ -1224,6 +1224,15 @@ NextViews Session::next_views(const Pose& current) {
     state.mean_f = rec->mean_f;
     state.scanner = m.scanner;
     state.rig = m.rig;
+    // A support plane the session detected binds the planner as a declared one would: no view below.
+    if (!m.rig.support_height())
+      if (const auto pl = m.known_support_plane(); pl && pl->normal.z() > 0.5) {
+        Fixture detected;
+        detected.name = "detected support plane";
+        detected.height = pl->offset / pl->normal.z();
+        detected.half_extent = kMaxCoordinate / 2;
+        state.rig.fixtures.push_back(detected);
+      }
     state.acquired_bounds = m.model.bounds();
     for (const auto& s : m.scans) state.scan_poses.push_back(s.registered_pose);
     Rng rng = Rng(m.options.seed).stream(kPlannerStream).stream(static_cast<std::uint64_t>(k));
