@@ -168,12 +168,22 @@ std::optional<SupportPlane> detect_support_plane(const PointCloud& cloud, const 
     }
     return c;
   };
+  // Hypotheses from the points that face up (when the scan has normals): a table seen over a small
+  // share of a scan still gets sampled (a triple of uniform draws would hit it with probability
+  // share³). Without normals, or fewer than three such points, from the whole subsample.
+  std::vector<std::size_t> pool;
+  if (normals)
+    for (std::size_t k : sample) {
+      const Vec3& nn = cloud.normals[k];
+      if (nn.z() >= cos_normal * nn.norm() && nn.z() > 0) pool.push_back(k);
+    }
+  if (pool.size() < 3) pool = sample;
   std::optional<SupportPlane> best;
   std::size_t best_in = 0;
   for (int it = 0; it < o.ransac_iterations; ++it) {
-    const Vec3& a = cloud.positions[sample[rng.uniform_int(m)]];
-    const Vec3& b = cloud.positions[sample[rng.uniform_int(m)]];
-    const Vec3& c = cloud.positions[sample[rng.uniform_int(m)]];
+    const Vec3& a = cloud.positions[pool[rng.uniform_int(pool.size())]];
+    const Vec3& b = cloud.positions[pool[rng.uniform_int(pool.size())]];
+    const Vec3& c = cloud.positions[pool[rng.uniform_int(pool.size())]];
     Vec3 nrm = (b - a).cross(c - a);
     if (nrm.norm() < 1e-15) continue;
     nrm.normalize();
