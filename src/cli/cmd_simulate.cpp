@@ -13,6 +13,7 @@
 #include "autoscan/session/certificate.hpp"
 #include "autoscan/shapes/paint.hpp"
 #include "autoscan/shapes/procedural.hpp"
+#include "autoscan/simulation/fixtures.hpp"
 #include "autoscan/simulation/simulate.hpp"
 #include "command.hpp"
 
@@ -27,7 +28,7 @@ struct SimCli {
   std::optional<int> max_views, max_iterations, depth;
   std::optional<double> noise;
   std::optional<std::uint64_t> seed;
-  bool resume = false, no_report = false, no_eval = false;
+  bool resume = false, no_report = false, no_eval = false, no_support = false;
   std::string checkpoints;
 };
 
@@ -39,7 +40,11 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
   sub->add_option("--noise", o.noise, "Scanner noise magnitude in [0, 1] (depth noise, outliers, pose error)");
   sub->add_option("--seed", o.seed, "Seed of every random choice (default 42)");
   sub->add_option("--depth", o.depth, "Poisson octree depth (default 8)");
-  sub->add_option("--rig", o.rig, "free, turntable_arm or view_sphere");
+  sub->add_option("--rig", o.rig,
+                  "free, turntable_arm (the object on a turntable disc), pr2 (a free arm, the object on a table) or "
+                  "view_sphere");
+  sub->add_flag("--no-support", o.no_support,
+                "No fixtures: the object floats in empty space (as before supports; docs/supports.md)");
   sub->add_option("--config", o.config, "JSON file with options: {session, scanner, rig, blind, eval, checkpoints}");
   sub->add_option("--checkpoints", o.checkpoints, "View budgets at which to evaluate the model, e.g. 10,20,40");
   sub->add_option("--paint", o.paint,
@@ -69,7 +74,13 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   }
   if (o.seed) base.session.seed = *o.seed;
   if (o.depth) base.session.poisson.depth = *o.depth;  // range-checked by base.validate() below
-  if (!o.rig.empty()) base.rig.kind = autoscan::Rig::parse_kind(o.rig);
+  if (!o.rig.empty()) {
+    // The preset's fixtures (a turntable disc, a table), unless the config declared its own.
+    const autoscan::Rig preset = autoscan::simulation::rig_preset(o.rig);
+    base.rig.kind = preset.kind;
+    if (base.rig.fixtures.empty()) base.rig.fixtures = preset.fixtures;
+  }
+  if (o.no_support) base.rig.fixtures.clear();
   if (!o.paint.empty()) {
     autoscan::paint_from_name(o.paint, "--paint");
     base.paint = o.paint;
@@ -117,8 +128,9 @@ void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const s
   if (o.max_iterations && *o.max_iterations != rec.session.max_iterations)
     refuse("--max-iterations", std::to_string(*o.max_iterations), std::to_string(rec.session.max_iterations));
   if (!o.paint.empty() && o.paint != rec.paint) refuse("--paint", o.paint, rec.paint);
-  if (!o.rig.empty() && autoscan::Rig::parse_kind(o.rig) != rec.rig.kind)
+  if (!o.rig.empty() && autoscan::simulation::rig_preset(o.rig).kind != rec.rig.kind)
     refuse("--rig", o.rig, autoscan::Rig::kind_name(rec.rig.kind));
+  if (o.no_support && !rec.rig.fixtures.empty()) refuse("--no-support", "", "its fixtures");
   auto joined = [](const std::vector<int>& v) {
     std::string t;
     for (int c : v) t += (t.empty() ? "" : ",") + std::to_string(c);

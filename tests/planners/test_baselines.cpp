@@ -20,7 +20,7 @@ namespace {
 constexpr double kRadius = 0.3;
 constexpr double kCapZ = 0.15;  // points above are missing
 
-struct Fixture {
+struct SceneFixture {
   ModelState state;
   std::vector<PointCloud> scans;
   std::vector<Pose> poses;
@@ -28,8 +28,8 @@ struct Fixture {
 
 /// Sphere samples below the cap, scanned from four sensors on the equator (and, with `bottom`, one
 /// below). A sensor sees the points facing it at incidence below 75 degrees.
-Fixture make_fixture(bool bottom) {
-  Fixture fx;
+SceneFixture make_fixture(bool bottom) {
+  SceneFixture fx;
   const int n = 5000;
   const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
   PointCloud all;
@@ -86,9 +86,9 @@ Fixture make_fixture(bool bottom) {
   return fx;
 }
 
-const Fixture& fixture(bool bottom) {
-  static const Fixture a = make_fixture(false);
-  static const Fixture b = make_fixture(true);
+const SceneFixture& fixture(bool bottom) {
+  static const SceneFixture a = make_fixture(false);
+  static const SceneFixture b = make_fixture(true);
   return bottom ? b : a;
 }
 
@@ -99,7 +99,7 @@ PlannerOptions small_options() {
   return o;
 }
 
-PlanOutput run(const std::string& name, const Fixture& fx, std::uint64_t seed, const ModelState* state = nullptr,
+PlanOutput run(const std::string& name, const SceneFixture& fx, std::uint64_t seed, const ModelState* state = nullptr,
                PlannerOptions options = small_options()) {
   auto p = make_planner(name, options);
   for (std::size_t i = 0; i < fx.scans.size(); ++i) p->observe_scan(fx.scans[i], fx.poses[i]);
@@ -256,7 +256,7 @@ TEST(Baselines, DensityTargetsTheHoleAndVisibilityTheGrazingBand) {
 TEST(PoissonPlanner, IgnoresPhantomSurfaceThatScannerRaysWentThrough) {
   // Low-confidence iso-points floating just in front of the sphere, where the +x sensor's rays
   // passed on their way to the surface: a Poisson surface bridging empty space (a "phantom").
-  const Fixture& fx = fixture(false);
+  const SceneFixture& fx = fixture(false);
   ModelState st = fx.state;
   // The real surface is confident, the phantom is not.
   std::vector<double> f(st.iso_points.size(), 0.95);
@@ -298,7 +298,7 @@ TEST(PlannerState, ARestoredPlannerPlansAsTheUninterruptedOne) {
   // planner gets it back (saved_state, restore_state) and the replay of the scans rebuilds the voxels
   // (their final state does not depend on the order of the rays): its next plan is the uninterrupted
   // planner's, bit for bit. Chosen again from the later, larger model it would differ (issue 21).
-  const Fixture& fx = fixture(true);
+  const SceneFixture& fx = fixture(true);
   for (const std::string name : {"sphere", "poisson"}) {
     PlannerOptions o = small_options();
     o.nbv.grid_resolution = 16;  // the grid is under test, not the field: keep the plans cheap

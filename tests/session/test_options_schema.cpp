@@ -118,6 +118,7 @@ TEST(OptionsSchema, EveryMemberIsListed) {
   EXPECT_EQ(listed_fields<registration::MultiwayOptions>() + 1, member_count<registration::MultiwayOptions>());
   EXPECT_EQ(listed_fields<session::SessionOptions>(), member_count<session::SessionOptions>());
   EXPECT_EQ(listed_fields<session::StopOptions>(), member_count<session::StopOptions>());
+  EXPECT_EQ(listed_fields<session::SupportOptions>(), member_count<session::SupportOptions>());
   EXPECT_EQ(listed_fields<planners::RandomPlannerOptions>(), member_count<planners::RandomPlannerOptions>());
   EXPECT_EQ(listed_fields<planners::SpherePlannerOptions>(), member_count<planners::SpherePlannerOptions>());
   EXPECT_EQ(listed_fields<planners::DensityPlannerOptions>(), member_count<planners::DensityPlannerOptions>());

@@ -7,9 +7,11 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/eval/metrics.hpp"
+#include "autoscan/io/mesh_io.hpp"
 #include "autoscan/shapes/primitives.hpp"
 #include "autoscan/shapes/sampling.hpp"
 #include "autoscan/simulation/bench.hpp"
+#include "autoscan/simulation/fixtures.hpp"
 #include "autoscan/simulation/scannable.hpp"
 #include "autoscan/simulation/simulate.hpp"
 #include "support/temp_dir.hpp"
@@ -176,4 +178,32 @@ TEST(Bench, GridExpandsAndCollectsTables) {
   EXPECT_EQ(s["finished"].get<int>(), 0);
   EXPECT_TRUE(fs::exists(dir / "results.md"));
   fs::remove_all(dir);
+}
+
+// Issue 17 (docs/supports.md): the object stands on a turntable disc whose points the session removes
+// (declared), or on a table the session finds itself (undeclared); nothing of either reaches the model.
+TEST(Simulation, ObjectOnATurntableLeavesNoFixturePointInTheModel) {
+  auto o = small_options();
+  o.rig = simulation::rig_preset("turntable_arm");
+  ASSERT_EQ(o.rig.fixtures.size(), 1u);
+  const auto dir = fresh("turntable");
+  const auto r = simulation::simulate(capsule_like(), dir, o);
+  // The object rests on the disc: its lowest vertex at the support's top.
+  const auto truth = io::read_mesh(dir / "truth.ply");
+  EXPECT_NEAR(truth.bounds().min.z(), simulation::kSupportHeight, 1e-12);
+  EXPECT_GT(r.fixture_points_scanned, 500u);               // the 160 × 120 scanner sees the disc's rim
+  EXPECT_GE(r.removed_fixture, r.fixture_points_scanned);  // the disc's, and the object's contact rim
+  EXPECT_EQ(r.removed_support_plane, 0u);
+  EXPECT_EQ(r.fixture_points_in_model, 0u);
+  fs::remove_all(dir);
+
+  o.rig = simulation::rig_preset("pr2");  // a table, not declared: the session must find it
+  o.declare_fixtures = false;
+  o.blind.elevations_deg = {45.0};  // at 20° the coarse scanner sees the table beyond its incidence limit
+  const auto dir2 = fresh("turntable_undeclared");
+  const auto u = simulation::simulate(capsule_like(), dir2, o);
+  EXPECT_EQ(u.removed_fixture, 0u);
+  EXPECT_GT(u.removed_support_plane, 1000u);
+  EXPECT_LT(static_cast<double>(u.fixture_points_in_model), 0.001 * static_cast<double>(u.fixture_points_scanned));
+  fs::remove_all(dir2);
 }

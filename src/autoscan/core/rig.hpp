@@ -7,12 +7,55 @@
 //  * view_sphere   — poses on a sphere of radius `sphere_radius` around the origin, looking at it
 //                    (the classic sphere-based planners, e.g. Vasquez-Gomez 2009).
 // A pose outside the reach is reported as unreachable with a reason, never silently moved.
+//
+// Fixtures (issue 17, docs/supports.md): the geometry that stands in the scene besides the object,
+// in the rig (world) frame, Z up — the support the object rests on (a table `plane`, a turntable
+// `disc`), a holder or a part of the robot (`box`, or a `mesh` file). The virtual scanner puts them
+// into its scene (they occlude and are scanned); the session removes the points within
+// `tolerance` of them; no pose may lie inside a fixture or at or below a support's top.
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "autoscan/core/mesh.hpp"
 #include "autoscan/core/pose.hpp"
 
 namespace autoscan {
+
+struct Fixture {
+  enum class Kind { plane, disc, box, mesh };
+  Kind kind = Kind::plane;
+  std::string name;          ///< for messages and reports ("" = "fixture N")
+  double height = 0.0;       ///< plane, disc: z of the top surface
+  double half_extent = 2.0;  ///< plane: the table is the square |x|, |y| <= half_extent at z = height
+  double radius = 0.45;      ///< disc: radius (centred on the Z axis, the turntable's axis)
+  double thickness = 0.05;   ///< disc: from height − thickness up to height
+  Vec3 min = Vec3::Zero();   ///< box: axis-aligned corners
+  Vec3 max = Vec3::Zero();
+  std::string file;  ///< mesh: a mesh file (PLY, OBJ, OFF, STL) in the rig frame, read by the caller
+  /// The object rests on it: no view at or below its top, and its top is the contact height
+  /// (default: true for plane and disc, false for box and mesh).
+  bool support = true;
+  /// Turns with the object (a turntable disc: the object's frame is the table's, so it stays put in
+  /// the poses' frame; false: fixed in the world — only meaningful for a rotationally symmetric part).
+  bool turns_with_object = true;
+  /// Points within this distance of the fixture are its points (removal, docs/supports.md).
+  double tolerance = 0.004;
+
+  /// The top of a support (plane, disc: height; box: max.z; mesh: not known here → nullopt).
+  std::optional<double> top() const;
+  /// Signed distance of `p` from a primitive (negative inside a disc or box; a plane: distance from
+  /// the table square, negative below it). nullopt for a mesh (the caller measures it on the mesh).
+  std::optional<double> signed_distance(const Vec3& p) const;
+  /// The primitive as outward oriented triangles (plane: one square of two triangles facing up;
+  /// disc: a closed 64-sided prism). Throws InputError for a mesh fixture (read `file` instead).
+  TriangleMesh primitive_mesh() const;
+  std::string label(std::size_t index) const;  ///< name, or "fixture N"
+  void validate(const std::string& what) const;
+  static Kind parse_kind(const std::string& name);
+  static std::string kind_name(Kind k);
+};
 
 struct Rig {
   enum class Kind { free, turntable_arm, view_sphere };
@@ -24,8 +67,16 @@ struct Rig {
   double sphere_radius = 1.2;           ///< view_sphere
   double sphere_tolerance = 1e-3;       ///< view_sphere: allowed radial deviation
   double turntable_cost_per_rad = 0.1;  ///< turntable_arm path cost of turning the table by 1 rad
+  /// Fixtures in the scene (the support first by convention; docs/supports.md). Empty: the object
+  /// floats (`simulate --no-support`).
+  std::vector<Fixture> fixtures;
 
-  /// True when the robot can place the scanner at `pose`; otherwise `why` (if given) says why.
+  /// The highest top among the support fixtures (nullopt when none is declared).
+  std::optional<double> support_height() const;
+
+  /// True when the robot can place the scanner at `pose`; otherwise `why` (if given) says why: outside
+  /// the rig's reach, "below the support plane" or "inside fixture N" (primitives; a mesh fixture's
+  /// inside is the scanner's check).
   bool reachable(const Pose& pose, std::string* why = nullptr) const;
   /// Motion cost between two poses, for ordering views into a path. free/view_sphere: Euclidean
   /// distance between positions; turntable_arm: arm motion in the table's frame (radius, height and

@@ -36,16 +36,39 @@ struct Rays {
   Mat3 projector_rot;                 // projector rotation (projector → world)
 };
 
+/// The range image of one scan in the TRUE camera frame (after noise): per pixel the point, the
+/// expected noise std-dev, validity, colour, the geometry hit; per row the counters.
+struct RangeImage {
+  std::vector<Vec3> pc;
+  std::vector<float> sigma;
+  std::vector<std::uint8_t> valid;
+  std::vector<Rgb> rgb;  // empty without colour
+  std::vector<std::int32_t> geometry;
+  std::vector<Counters> rows;
+  double exposure = 1.0;
+};
+
+/// One packet of neighbouring pixels of a row on its way through the camera tests.
+struct Packet {
+  int n = 0, col0 = 0;
+  std::array<Vec3, kPacket> cam_dir, world_dir, shadow_dir;
+  std::array<unsigned, kPacket> prim;
+  std::array<double, kPacket> t_hit, shadow_tfar, cos_cam;
+  std::array<bool, kPacket> active, blocked;
+};
+
 }  // namespace
 
 struct VirtualScanner::Impl {
   ScannerSpec spec;
   VirtualScannerOptions options;
-  AABB box;
+  AABB box;                   // the object's (fixtures excluded)
   Vec3 shift = Vec3::Zero();  // the ray scene holds vertices - shift (better float precision)
   double diag = 0.0;
-  std::vector<Vec3> vertices;  // shifted, double precision
+  std::vector<Vec3> vertices;  // shifted, double precision: the object's, then each fixture's
   std::vector<Tri> faces;
+  std::size_t object_faces = 0;                // faces [0, object_faces) are the object's
+  std::vector<std::size_t> fixture_begin;      // first face of each fixture
   std::unique_ptr<spatial::RayScene> scene;    // of the shifted vertices
   const std::vector<Vec3>* normals = nullptr;  // the scene's unit face normals (zero for degenerate faces)
   // Camera intrinsics: pixel (c, r) looks along ((c + 0.5 - cx)/f, (r + 0.5 - cy)/f, 1).
@@ -60,7 +83,14 @@ struct VirtualScanner::Impl {
   void occluded(int n, const Vec3& org, const Vec3* dirs, const double* tfar, const bool* active, bool* hit) const;
   ScanResult run(const Pose& commanded, const Eigen::Isometry3d& world_from_true, std::uint64_t scan_id,
                  const Rng& scan_rng) const;
-  void check_pose(const Pose& pose, const std::string& what) const;
+  RangeImage range_image(const Rays& rays, const Rng& scan_rng) const;
+  void screen_packet(const Rays& rays, Packet& pk, Counters& cnt) const;
+  void keep_packet(const Rays& rays, int row, Packet& pk, Rng& rng, Rng& color_rng, RangeImage& img,
+                   Counters& cnt) const;
+  Rgb shade(unsigned prim, const Vec3& x, double cos_i, double exposure, Rng& color_rng) const;
+  std::vector<Vec3> range_normals(const RangeImage& img) const;
+  std::int32_t geometry_of(unsigned prim) const;
+  std::optional<std::string> refusal(const VirtualScanner& self, const Pose& pose, const std::string& what) const;
 };
 
 void VirtualScanner::Impl::intersect(int n, const Vec3& org, const Vec3* dirs, unsigned* prim) const {
@@ -80,11 +110,10 @@ void VirtualScanner::Impl::occluded(int n, const Vec3& org, const Vec3* dirs, co
   for (int i = 0; i < n; ++i) hit[i] = active[i] && scene->occluded(org, dirs[i], tfar[i]);
 }
 
-void VirtualScanner::Impl::check_pose(const Pose& pose, const std::string& what) const {
-  pose.validate(what);
-  std::string why;
-  AUTOSCAN_REQUIRE(options.rig.reachable(pose, &why), "{}: unreachable for the {} rig: {}", what,
-                   Rig::kind_name(options.rig.kind), why);
+std::int32_t VirtualScanner::Impl::geometry_of(unsigned prim) const {
+  if (prim < object_faces) return ScanResult::kObject;
+  const auto it = std::upper_bound(fixture_begin.begin(), fixture_begin.end(), static_cast<std::size_t>(prim));
+  return static_cast<std::int32_t>(it - fixture_begin.begin()) - 1;
 }
 
 namespace {
@@ -111,169 +140,181 @@ Pose pose_from_isometry(const Eigen::Isometry3d& t) {
   p.up = -t.linear().col(1);
   return p;
 }
+
+/// A fixture's grey (no surface colour of its own), on the 0-255 scale of TriangleMesh::color_at.
+constexpr double kFixtureAlbedo = 160.0;
 }  // namespace
 
-ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometry3d& world_from_true,
-                                     std::uint64_t scan_id, const Rng& scan_rng) const {
-  Stopwatch clock;
-  const int width = spec.width, height = spec.height;
-  const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  const Eigen::Isometry3d world_from_cmd = commanded.world_from_camera();
+// The camera tests of one packet: first hit, range, incidence, projector field of view and
+// incidence. A pixel that passes them is `active` (its projector ray is traced next).
+void VirtualScanner::Impl::screen_packet(const Rays& rays, Packet& pk, Counters& cnt) const {
+  intersect(pk.n, rays.origin_local, pk.world_dir.data(), pk.prim.data());
+  for (int i = 0; i < pk.n; ++i) {
+    pk.active[i] = false;
+    if (pk.prim[i] == spatial::RayScene::kNoHit) continue;
+    ++cnt.hits;
+    // Refine the hit in double precision: the ray against the hit triangle's plane.
+    const Vec3& nrm = (*normals)[pk.prim[i]];
+    const double denom = nrm.dot(pk.world_dir[i]);
+    if (std::abs(denom) < 1e-300) {
+      ++cnt.incidence;  // a ray in the triangle's plane: grazing
+      continue;
+    }
+    const double t = nrm.dot(vertices[static_cast<std::size_t>(faces[pk.prim[i]][0])] - rays.origin_local) / denom;
+    if (!(t >= spec.near && t <= spec.far)) {
+      ++cnt.range;
+      continue;
+    }
+    pk.cos_cam[i] = std::abs(denom) / pk.world_dir[i].norm();
+    if (pk.cos_cam[i] < cos_max) {
+      ++cnt.incidence;
+      continue;
+    }
+    const Vec3 n_cam = denom < 0 ? nrm : Vec3(-nrm);  // normal on the camera's side
+    const Vec3 x = rays.origin_local + t * pk.world_dir[i];
+    const Vec3 to_proj = rays.projector_local - x;
+    const Vec3 in_proj = rays.projector_rot.transpose() * (-to_proj);
+    if (!(in_proj.z() > 0 && std::abs(in_proj.x()) <= tan_proj_h * in_proj.z() &&
+          std::abs(in_proj.y()) <= tan_proj_v * in_proj.z())) {
+      ++cnt.proj_fov;
+      continue;
+    }
+    const double dist = to_proj.norm();
+    if (n_cam.dot(to_proj) < cos_max * dist) {
+      ++cnt.proj_incidence;
+      continue;
+    }
+    pk.t_hit[i] = t;
+    pk.shadow_dir[i] = -to_proj;  // projector → hit, t = 1 at the hit
+    pk.shadow_tfar[i] = std::max(0.0, 1.0 - options.shadow_epsilon * diag / dist);
+    pk.active[i] = true;
+    ++cnt.shadow_rays;
+  }
+}
 
-  Rays rays;
-  rays.world_from_true = world_from_true;
-  rays.rot = world_from_true.linear();
-  rays.origin_local = world_from_true.translation() - shift;
-  rays.projector_local = rays.origin_local + spec.baseline * rays.rot.col(0);
-  rays.projector_rot =
-      projector_rotation(rays.projector_local, rays.origin_local + spec.optimal_distance() * rays.rot.col(2), rays.rot);
+// The colour of a true hit `x` on triangle `prim` under the camera's light (ScannerSpec::ambient,
+// Lambertian in the camera incidence), times this scan's exposure, plus colour noise.
+Rgb VirtualScanner::Impl::shade(unsigned prim, const Vec3& x, double cos_i, double exposure, Rng& color_rng) const {
+  Vec3 albedo = Vec3::Constant(kFixtureAlbedo);
+  if (prim < object_faces) {
+    const Tri& tri = faces[prim];
+    const Vec3 e1 = vertices[static_cast<std::size_t>(tri[1])] - vertices[static_cast<std::size_t>(tri[0])];
+    const Vec3 e2 = vertices[static_cast<std::size_t>(tri[2])] - vertices[static_cast<std::size_t>(tri[0])];
+    const Vec3 d = x - vertices[static_cast<std::size_t>(tri[0])];
+    const double d00 = e1.dot(e1), d01 = e1.dot(e2), d11 = e2.dot(e2), d20 = d.dot(e1), d21 = d.dot(e2);
+    const double den = d00 * d11 - d01 * d01;
+    double b1 = 0.0, b2 = 0.0;
+    if (std::abs(den) > 0.0) {
+      b1 = std::clamp((d11 * d20 - d01 * d21) / den, 0.0, 1.0);
+      b2 = std::clamp((d00 * d21 - d01 * d20) / den, 0.0, 1.0 - b1);
+    }
+    albedo = paint.color_at(prim, b1, b2);
+  }
+  const NoiseSpec& noise = spec.noise;
+  const double light = (spec.ambient + (1.0 - spec.ambient) * cos_i) * exposure;
+  Rgb out{0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    const double c = albedo[k] * light + noise.magnitude * noise.color_sigma * color_rng.normal();
+    out[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::clamp(std::lround(c), 0L, 255L));
+  }
+  return out;
+}
 
+// The pixels of a packet the projector sees are kept: noise along the camera ray (all draws happen in
+// pixel order within the row), colour, the geometry hit.
+void VirtualScanner::Impl::keep_packet(const Rays& rays, int row, Packet& pk, Rng& rng, Rng& color_rng, RangeImage& img,
+                                       Counters& cnt) const {
+  occluded(pk.n, rays.projector_local, pk.shadow_dir.data(), pk.shadow_tfar.data(), pk.active.data(),
+           pk.blocked.data());
   const NoiseSpec& noise = spec.noise;
   const double mag = noise.magnitude;
-  const double shadow_eps = options.shadow_epsilon * diag;
+  for (int i = 0; i < pk.n; ++i) {
+    if (!pk.active[i]) continue;
+    if (pk.blocked[i]) {
+      ++cnt.shadow;
+      continue;
+    }
+    const double z = pk.t_hit[i];
+    const double r = z * pk.cam_dir[i].norm();
+    const double cos_i = std::min(1.0, pk.cos_cam[i]);
+    const double tan_i = std::sqrt(std::max(0.0, 1.0 - cos_i * cos_i)) / cos_i;
+    const double sd = mag * noise.depth_sigma * std::pow(z / spec.near, noise.depth_distance_power) *
+                      (1.0 + noise.depth_incidence_gain * tan_i);
+    const double g = rng.normal();
+    const double u_out = rng.uniform();
+    const double u_disp = rng.uniform(-1.0, 1.0);
+    double delta = sd * g;
+    if (u_out < mag * noise.outlier_fraction) {
+      delta = u_disp * noise.outlier_range;
+      ++cnt.outliers;
+    }
+    const std::size_t pix =
+        static_cast<std::size_t>(row) * static_cast<std::size_t>(spec.width) + static_cast<std::size_t>(pk.col0 + i);
+    if (!img.rgb.empty())
+      img.rgb[pix] = shade(pk.prim[i], rays.origin_local + z * pk.world_dir[i], cos_i, img.exposure, color_rng);
+    img.pc[pix] = pk.cam_dir[i] * (z * (1.0 + delta / r));
+    img.sigma[pix] = static_cast<float>(sd);
+    img.valid[pix] = 1;
+    img.geometry[pix] = geometry_of(pk.prim[i]);
+    ++cnt.points;
+  }
+}
 
-  // Range image in the TRUE camera frame (after noise), the expected noise std-dev, validity.
-  std::vector<Vec3> pc(npix, Vec3::Zero());
-  std::vector<float> sigma(npix, 0.0f);
-  std::vector<std::uint8_t> valid(npix, 0);
-  std::vector<Counters> row_counts(static_cast<std::size_t>(height));
-  // Colour (when the mesh has one): the albedo at the true hit under the camera's light (ScannerSpec::
-  // ambient, Lambertian in the camera incidence), times this scan's exposure, plus colour noise.
-  const bool colored = !paint.faces.empty();
-  std::vector<Rgb> rgb(colored ? npix : 0, Rgb{0, 0, 0});
-  const double exposure =
-      std::exp(mag * noise.exposure_sigma * scan_rng.stream(0).stream(1).normal());  // one factor per scan
-
+RangeImage VirtualScanner::Impl::range_image(const Rays& rays, const Rng& scan_rng) const {
+  const int width = spec.width, height = spec.height;
+  const std::size_t npix = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  RangeImage img;
+  img.pc.assign(npix, Vec3::Zero());
+  img.sigma.assign(npix, 0.0f);
+  img.valid.assign(npix, 0);
+  img.geometry.assign(npix, ScanResult::kObject);
+  img.rows.resize(static_cast<std::size_t>(height));
+  if (!paint.faces.empty()) img.rgb.assign(npix, Rgb{0, 0, 0});
+  const NoiseSpec& noise = spec.noise;
+  img.exposure = std::exp(noise.magnitude * noise.exposure_sigma * scan_rng.stream(0).stream(1).normal());
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
-    std::array<Vec3, kPacket> cam_dir, world_dir, shadow_dir;
-    std::array<unsigned, kPacket> prim;
-    std::array<double, kPacket> t_hit, shadow_tfar, cos_cam;
-    std::array<bool, kPacket> active, blocked;
+    Packet pk;
     for (int row = rows.begin(); row != rows.end(); ++row) {
       Rng rng = scan_rng.stream(static_cast<std::uint64_t>(row) + 1);
       Rng color_rng = rng.stream(1);  // colour noise: its own stream, the depth draws are unchanged
-      Counters& cnt = row_counts[static_cast<std::size_t>(row)];
+      Counters& cnt = img.rows[static_cast<std::size_t>(row)];
       const double yc = (row + 0.5 - cy) / f;
       for (int col0 = 0; col0 < width; col0 += kPacket) {
-        const int n = std::min(kPacket, width - col0);
-        for (int i = 0; i < n; ++i) {
-          cam_dir[i] = Vec3((col0 + i + 0.5 - cx) / f, yc, 1.0);  // camera z = 1: ray t = depth
-          world_dir[i] = rays.rot * cam_dir[i];
+        pk.col0 = col0;
+        pk.n = std::min(kPacket, width - col0);
+        for (int i = 0; i < pk.n; ++i) {
+          pk.cam_dir[i] = Vec3((col0 + i + 0.5 - cx) / f, yc, 1.0);  // camera z = 1: ray t = depth
+          pk.world_dir[i] = rays.rot * pk.cam_dir[i];
         }
-        intersect(n, rays.origin_local, world_dir.data(), prim.data());
-        for (int i = 0; i < n; ++i) {
-          active[i] = false;
-          if (prim[i] == spatial::RayScene::kNoHit) continue;
-          ++cnt.hits;
-          // Refine the hit in double precision: the ray against the hit triangle's plane.
-          const Vec3& nrm = (*normals)[prim[i]];
-          const double denom = nrm.dot(world_dir[i]);
-          if (std::abs(denom) < 1e-300) {
-            ++cnt.incidence;  // a ray in the triangle's plane: grazing
-            continue;
-          }
-          const double t = nrm.dot(vertices[static_cast<std::size_t>(faces[prim[i]][0])] - rays.origin_local) / denom;
-          if (!(t >= spec.near && t <= spec.far)) {
-            ++cnt.range;
-            continue;
-          }
-          cos_cam[i] = std::abs(denom) / world_dir[i].norm();
-          if (cos_cam[i] < cos_max) {
-            ++cnt.incidence;
-            continue;
-          }
-          const Vec3 n_cam = denom < 0 ? nrm : Vec3(-nrm);  // normal on the camera's side
-          const Vec3 x = rays.origin_local + t * world_dir[i];
-          const Vec3 to_proj = rays.projector_local - x;
-          const Vec3 in_proj = rays.projector_rot.transpose() * (-to_proj);
-          if (!(in_proj.z() > 0 && std::abs(in_proj.x()) <= tan_proj_h * in_proj.z() &&
-                std::abs(in_proj.y()) <= tan_proj_v * in_proj.z())) {
-            ++cnt.proj_fov;
-            continue;
-          }
-          const double dist = to_proj.norm();
-          if (n_cam.dot(to_proj) < cos_max * dist) {
-            ++cnt.proj_incidence;
-            continue;
-          }
-          t_hit[i] = t;
-          shadow_dir[i] = -to_proj;  // projector → hit, t = 1 at the hit
-          shadow_tfar[i] = std::max(0.0, 1.0 - shadow_eps / dist);
-          active[i] = true;
-          ++cnt.shadow_rays;
-        }
-        occluded(n, rays.projector_local, shadow_dir.data(), shadow_tfar.data(), active.data(), blocked.data());
-        for (int i = 0; i < n; ++i) {
-          if (!active[i]) continue;
-          if (blocked[i]) {
-            ++cnt.shadow;
-            continue;
-          }
-          // Kept. Noise along the camera ray (all draws happen in pixel order within the row).
-          const double z = t_hit[i];
-          const double r = z * cam_dir[i].norm();
-          const double cos_i = std::min(1.0, cos_cam[i]);
-          const double tan_i = std::sqrt(std::max(0.0, 1.0 - cos_i * cos_i)) / cos_i;
-          const double sd = mag * noise.depth_sigma * std::pow(z / spec.near, noise.depth_distance_power) *
-                            (1.0 + noise.depth_incidence_gain * tan_i);
-          const double g = rng.normal();
-          const double u_out = rng.uniform();
-          const double u_disp = rng.uniform(-1.0, 1.0);
-          double delta = sd * g;
-          if (u_out < mag * noise.outlier_fraction) {
-            delta = u_disp * noise.outlier_range;
-            ++cnt.outliers;
-          }
-          const std::size_t pix =
-              static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col0 + i);
-          if (colored) {
-            const Tri& tri = faces[prim[i]];
-            const Vec3 x = rays.origin_local + z * world_dir[i];  // the true hit
-            const Vec3 e1 = vertices[static_cast<std::size_t>(tri[1])] - vertices[static_cast<std::size_t>(tri[0])];
-            const Vec3 e2 = vertices[static_cast<std::size_t>(tri[2])] - vertices[static_cast<std::size_t>(tri[0])];
-            const Vec3 d = x - vertices[static_cast<std::size_t>(tri[0])];
-            const double d00 = e1.dot(e1), d01 = e1.dot(e2), d11 = e2.dot(e2), d20 = d.dot(e1), d21 = d.dot(e2);
-            const double den = d00 * d11 - d01 * d01;
-            double b1 = 0.0, b2 = 0.0;
-            if (std::abs(den) > 0.0) {
-              b1 = std::clamp((d11 * d20 - d01 * d21) / den, 0.0, 1.0);
-              b2 = std::clamp((d00 * d21 - d01 * d20) / den, 0.0, 1.0 - b1);
-            }
-            const Vec3 albedo = paint.color_at(prim[i], b1, b2);
-            const double shade = (spec.ambient + (1.0 - spec.ambient) * cos_i) * exposure;
-            Rgb& out = rgb[pix];
-            for (int k = 0; k < 3; ++k) {
-              const double c = albedo[k] * shade + mag * noise.color_sigma * color_rng.normal();
-              out[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::clamp(std::lround(c), 0L, 255L));
-            }
-          }
-          pc[pix] = cam_dir[i] * (z * (1.0 + delta / r));
-          sigma[pix] = static_cast<float>(sd);
-          valid[pix] = 1;
-          ++cnt.points;
-        }
+        screen_packet(rays, pk, cnt);
+        keep_packet(rays, row, pk, rng, color_rng, img, cnt);
       }
     }
   });
+  return img;
+}
 
-  // Normals from the range image (as a real scanner's per-frame mesh gives them).
-  std::vector<Vec3> nc(npix, Vec3::Zero());
+// Normals from the range image (as a real scanner's per-frame mesh gives them).
+std::vector<Vec3> VirtualScanner::Impl::range_normals(const RangeImage& img) const {
+  const int width = spec.width, height = spec.height;
+  std::vector<Vec3> nc(img.pc.size(), Vec3::Zero());
   const double jump_per_pixel = tan_max / f;  // depth change per pixel and unit depth at max incidence
+  auto index = [&](int c, int r) {
+    return static_cast<std::size_t>(r) * static_cast<std::size_t>(width) + static_cast<std::size_t>(c);
+  };
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     for (int row = rows.begin(); row != rows.end(); ++row) {
       for (int col = 0; col < width; ++col) {
-        const std::size_t p =
-            static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(col);
-        if (!valid[p]) continue;
-        const Vec3& P = pc[p];
+        const std::size_t p = index(col, row);
+        if (!img.valid[p]) continue;
+        const Vec3& P = img.pc[p];
         auto neighbour = [&](int c, int r, int step) -> const Vec3* {
           if (c < 0 || r < 0 || c >= width || r >= height) return nullptr;
-          const std::size_t q =
-              static_cast<std::size_t>(r) * static_cast<std::size_t>(width) + static_cast<std::size_t>(c);
-          if (!valid[q]) return nullptr;
-          const double s2 = double(sigma[p]) * sigma[p] + double(sigma[q]) * sigma[q];
+          const std::size_t q = index(c, r);
+          if (!img.valid[q]) return nullptr;
+          const double s2 = double(img.sigma[p]) * img.sigma[p] + double(img.sigma[q]) * img.sigma[q];
           const double limit = options.discontinuity_factor * (P.z() * jump_per_pixel * step + 3.0 * std::sqrt(s2));
-          return std::abs(pc[q].z() - P.z()) <= limit ? &pc[q] : nullptr;
+          return std::abs(img.pc[q].z() - P.z()) <= limit ? &img.pc[q] : nullptr;
         };
         auto difference = [&](int dc, int dr, Vec3& out) {
           for (int step = std::max(1, options.normal_step); step >= 1; --step) {
@@ -302,15 +343,33 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
       }
     }
   });
+  return nc;
+}
 
+ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometry3d& world_from_true,
+                                     std::uint64_t scan_id, const Rng& scan_rng) const {
+  Stopwatch clock;
+  const Eigen::Isometry3d world_from_cmd = commanded.world_from_camera();
+  Rays rays;
+  rays.world_from_true = world_from_true;
+  rays.rot = world_from_true.linear();
+  rays.origin_local = world_from_true.translation() - shift;
+  rays.projector_local = rays.origin_local + spec.baseline * rays.rot.col(0);
+  rays.projector_rot =
+      projector_rotation(rays.projector_local, rays.origin_local + spec.optimal_distance() * rays.rot.col(2), rays.rot);
+
+  const RangeImage img = range_image(rays, scan_rng);
+  const std::vector<Vec3> nc = range_normals(img);
+
+  // Assembly: the valid pixels in pixel order, in the commanded pose's world frame.
   ScanResult res;
   res.scan_id = scan_id;
   res.commanded = commanded;
   res.actual = pose_from_isometry(world_from_true);
   res.misalignment = world_from_cmd * world_from_true.inverse();
   auto& d = res.diagnostics;
-  d.rays_cast = npix;
-  for (const auto& c : row_counts) {
+  d.rays_cast = img.pc.size();
+  for (const auto& c : img.rows) {
     d.hits += c.hits;
     d.points += c.points;
     d.rejected_range += c.range;
@@ -325,13 +384,17 @@ ScanResult VirtualScanner::Impl::run(const Pose& commanded, const Eigen::Isometr
   cloud.positions.reserve(d.points);
   cloud.normals.reserve(d.points);
   res.pixels.reserve(d.points);
+  res.geometry.reserve(d.points);
+  res.fixture_points.assign(fixture_begin.size(), 0);
   const Mat3 rot_cmd = world_from_cmd.linear();
-  for (std::size_t p = 0; p < npix; ++p) {
-    if (!valid[p]) continue;
-    cloud.positions.push_back(world_from_cmd * pc[p]);
+  for (std::size_t p = 0; p < img.pc.size(); ++p) {
+    if (!img.valid[p]) continue;
+    cloud.positions.push_back(world_from_cmd * img.pc[p]);
     cloud.normals.push_back(rot_cmd * nc[p]);
     res.pixels.push_back(static_cast<std::uint32_t>(p));
-    if (colored) cloud.colors.push_back(rgb[p]);
+    res.geometry.push_back(img.geometry[p]);
+    if (img.geometry[p] >= 0) ++res.fixture_points[static_cast<std::size_t>(img.geometry[p])];
+    if (!img.rgb.empty()) cloud.colors.push_back(img.rgb[p]);
   }
   const std::size_t m = cloud.positions.size();
   cloud.scalars.set("scan_id", std::vector<double>(m, static_cast<double>(scan_id)));
@@ -365,6 +428,24 @@ VirtualScanner::VirtualScanner(const TriangleMesh& mesh, const ScannerSpec& spec
   s.vertices.reserve(mesh.vertices.size());
   for (const auto& v : mesh.vertices) s.vertices.push_back(v - s.shift);
   s.faces = mesh.faces;
+  s.object_faces = mesh.faces.size();
+  // The fixtures join the scene after the object (their faces are labelled by geometry_of).
+  AUTOSCAN_REQUIRE(s.options.fixtures.size() == s.options.rig.fixtures.size() || s.options.rig.fixtures.empty(),
+                   "scanner options: {} fixture meshes for the rig's {} fixtures", s.options.fixtures.size(),
+                   s.options.rig.fixtures.size());
+  for (std::size_t k = 0; k < s.options.fixtures.size(); ++k) {
+    const TriangleMesh& fx = s.options.fixtures[k];
+    const std::string what = fmt::format("fixture {}", k);
+    AUTOSCAN_REQUIRE(!fx.faces.empty(), "{}: has no triangles", what);
+    fx.validate(what);
+    const int base = static_cast<int>(s.vertices.size());
+    s.fixture_begin.push_back(s.faces.size());
+    for (const auto& v : fx.vertices) s.vertices.push_back(v - s.shift);
+    for (const auto& t : fx.faces) s.faces.push_back({t[0] + base, t[1] + base, t[2] + base});
+  }
+  AUTOSCAN_REQUIRE(s.vertices.size() < std::numeric_limits<unsigned>::max() &&
+                       s.faces.size() < std::numeric_limits<unsigned>::max() / 2,
+                   "mesh: too large for the ray tracer with its fixtures ({} triangles)", s.faces.size());
   if (mesh.has_surface_colors()) {
     s.paint.faces = mesh.faces;
     s.paint.vertex_colors = mesh.vertex_colors;
@@ -395,18 +476,25 @@ bool VirtualScanner::inside(const Vec3& point) const {
   return s.scene->inside(point - s.shift);  // the spatial floor's inside test (spatial/ray_scene.hpp)
 }
 
-namespace {
-void check_inside(const VirtualScanner& scanner, const Pose& pose, const std::string& what) {
-  AUTOSCAN_REQUIRE(!scanner.inside(pose.position),
-                   "{}: the scanner position ({:.4g}, {:.4g}, {:.4g}) is inside the mesh", what, pose.position.x(),
-                   pose.position.y(), pose.position.z());
+std::optional<std::string> VirtualScanner::Impl::refusal(const VirtualScanner& self, const Pose& pose,
+                                                         const std::string& what) const {
+  pose.validate(what);  // bad input: an exception, not a refusal
+  std::string why;
+  if (!options.rig.reachable(pose, &why))
+    return fmt::format("{}: unreachable for the {} rig: {}", what, Rig::kind_name(options.rig.kind), why);
+  if (options.check_pose_inside && self.inside(pose.position))
+    return fmt::format("{}: the scanner position ({:.4g}, {:.4g}, {:.4g}) is inside the mesh", what, pose.position.x(),
+                       pose.position.y(), pose.position.z());
+  return std::nullopt;
 }
-}  // namespace
+
+std::optional<std::string> VirtualScanner::refusal(const Pose& pose) const {
+  return impl_->refusal(*this, pose, "pose");
+}
 
 ScanResult VirtualScanner::scan(const Pose& commanded, std::uint64_t scan_id, std::uint64_t seed) const {
   const Impl& s = *impl_;
-  s.check_pose(commanded, "pose");
-  if (s.options.check_pose_inside) check_inside(*this, commanded, "pose");
+  if (const auto why = s.refusal(*this, commanded, "pose")) throw InputError(*why);
   const Rng scan_rng = Rng(seed).stream(scan_id);
   const Eigen::Isometry3d world_from_cmd = commanded.world_from_camera();
   Eigen::Isometry3d world_from_true = world_from_cmd;
@@ -427,19 +515,18 @@ ScanResult VirtualScanner::scan(const Pose& commanded, std::uint64_t scan_id, st
 ScanResult VirtualScanner::scan_from(const Pose& commanded, const Pose& actual, std::uint64_t scan_id,
                                      std::uint64_t seed) const {
   const Impl& s = *impl_;
-  s.check_pose(commanded, "pose");
+  if (const auto why = s.refusal(*this, commanded, "pose")) throw InputError(*why);
   actual.validate("actual pose");
-  if (s.options.check_pose_inside) {
-    check_inside(*this, commanded, "pose");
-    check_inside(*this, actual, "actual pose");
-  }
+  if (s.options.check_pose_inside && inside(actual.position))
+    throw InputError(fmt::format("actual pose: the scanner position ({:.4g}, {:.4g}, {:.4g}) is inside the mesh",
+                                 actual.position.x(), actual.position.y(), actual.position.z()));
   return s.run(commanded, actual.world_from_camera(), scan_id, Rng(seed).stream(scan_id));
 }
 
 const ScannerSpec& VirtualScanner::spec() const { return impl_->spec; }
 const VirtualScannerOptions& VirtualScanner::options() const { return impl_->options; }
 const AABB& VirtualScanner::bounds() const { return impl_->box; }
-std::size_t VirtualScanner::triangle_count() const { return impl_->faces.size(); }
+std::size_t VirtualScanner::triangle_count() const { return impl_->object_faces; }
 
 ScanResult scan_mesh(const TriangleMesh& mesh, const ScannerSpec& spec, const Pose& pose, std::uint64_t scan_id,
                      std::uint64_t seed, const VirtualScannerOptions& options) {

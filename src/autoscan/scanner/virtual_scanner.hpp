@@ -32,6 +32,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -52,7 +53,12 @@ enum class RayMode {
 /// Options of the virtual scanner that are not properties of the scanner itself (those are in
 /// ScannerSpec).
 struct VirtualScannerOptions {
-  Rig rig;                              ///< poses outside the rig's reach are refused (InputError)
+  Rig rig;  ///< poses outside the rig's reach are refused (refusal(), scan())
+  /// The meshes of the rig's fixtures (Rig::fixtures, same order; simulation::fixture_meshes builds
+  /// them, reading a mesh fixture's file), in the world frame: they join the ray scene, so they
+  /// occlude and are scanned, and each point says which geometry it hit (ScanResult::geometry).
+  /// Empty: the object alone (the scans are bit-identical to a scanner without this field).
+  std::vector<TriangleMesh> fixtures;
   RayMode ray_mode = RayMode::packets;  ///< packets or single rays
   bool check_pose_inside = true;        ///< refuse a camera position inside the (closed) mesh
   /// Normals come from the range image: cross product of the points `normal_step` pixels left/right
@@ -90,6 +96,12 @@ struct ScanResult {
   PointCloud cloud;
   /// Pixel index (row × width + column) of each point, in the same order as the cloud.
   std::vector<std::uint32_t> pixels;
+  /// What each point's camera ray hit: kObject, or the index of the fixture (VirtualScannerOptions::
+  /// fixtures). Same order as the cloud.
+  std::vector<std::int32_t> geometry;
+  static constexpr std::int32_t kObject = -1;
+  /// Points per fixture (geometry ≥ 0), one entry per fixture of the scanner.
+  std::vector<std::size_t> fixture_points;
   std::uint64_t scan_id = 0;
   Pose commanded;  ///< the pose asked for
   Pose actual;     ///< where the scanner really was (differs only with pose error)
@@ -112,9 +124,14 @@ class VirtualScanner {
   VirtualScanner(const VirtualScanner&) = delete;
   VirtualScanner& operator=(const VirtualScanner&) = delete;
 
+  /// Why the scanner refuses to scan from `pose` (the rig cannot reach it, with the rig's reason —
+  /// outside the reach, below the support, inside a fixture — or the camera is inside the mesh);
+  /// nullopt when it scans. A driver that skips refused views asks this first (a refusal is not an
+  /// error). Throws InputError for a non-finite pose or a zero direction (bad input).
+  std::optional<std::string> refusal(const Pose& pose) const;
   /// Scans from `commanded`; the noise (including the pose error) is drawn from (seed, scan_id).
-  /// Throws InputError for a non-finite pose, a zero direction, a pose the rig cannot reach (with the
-  /// rig's reason) or a camera inside the mesh.
+  /// Throws InputError for a non-finite pose, a zero direction, or a pose refusal() refuses (with
+  /// its reason): scan() is the strict call (the CLI's `scan`, Python).
   ScanResult scan(const Pose& commanded, std::uint64_t scan_id, std::uint64_t seed = 42) const;
   /// Scans with the scanner physically at `actual` while reporting in `commanded`'s frame (a pose
   /// error chosen by the caller; the spec's pose-error noise is not added). Depth noise and outliers

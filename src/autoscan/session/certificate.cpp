@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <numeric>
 
 #include "autoscan/core/error.hpp"
@@ -38,7 +39,59 @@ int integer(const json& j, const char* key, const std::string& what) {
   return j.at(key).get<int>();
 }
 
+// Two median sample spacings of `consolidated` (over up to 2000 of its points), or two mesh edges.
+double data_radius_of(const spatial::KdTree& tree, const PointCloud& consolidated, double edge_length) {
+  std::vector<double> spacing;
+  const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
+  std::size_t idx[2];
+  double d2[2];
+  for (std::size_t i = 0; i < consolidated.size(); i += step)
+    if (tree.knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
+  double s = 0.0;
+  if (!spacing.empty()) {
+    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
+    s = spacing[spacing.size() / 2];
+  }
+  return 2.0 * std::max(s, edge_length);
+}
+
+// True when no view of `p` (outward normal `n`) within the scanner's incidence limit, at the optimal
+// distance, lies above the support (where every view must be, Rig::reachable): the direction of the
+// incidence cone that rises most decides.
+bool hidden_by_support(const Vec3& p, const Vec3& n, const SupportContact& contact, const ScannerSpec& scanner) {
+  if (n.squaredNorm() < 1e-24) return false;
+  const Vec3 axis = n.normalized();
+  const double theta = scanner.max_incidence_deg * std::numbers::pi / 180.0;
+  const Vec3 up = contact.plane.normal;
+  Vec3 side = up - up.dot(axis) * axis;  // toward "up" within the cone
+  if (side.norm() < 1e-9) side = axis.unitOrthogonal();
+  side.normalize();
+  const double d = scanner.optimal_distance();
+  const double to_up = std::acos(std::clamp(axis.dot(up), -1.0, 1.0));
+  const Vec3 best = to_up <= theta ? up : Vec3(std::cos(theta) * axis + std::sin(theta) * side);
+  return contact.plane.distance(p + d * best) <= 0.0;
+}
+
 }  // namespace
+
+std::vector<double> vertex_data_support(const TriangleMesh& mesh, const PointCloud& consolidated) {
+  std::vector<double> out(mesh.vertices.size(), 0.0);
+  if (consolidated.empty() || mesh.faces.empty()) return out;
+  double edges = 0.0;
+  for (const auto& f : mesh.faces)
+    for (int k = 0; k < 3; ++k)
+      edges += (mesh.vertices[static_cast<std::size_t>(f[static_cast<std::size_t>(k)])] -
+                mesh.vertices[static_cast<std::size_t>(f[static_cast<std::size_t>((k + 1) % 3)])])
+                   .norm();
+  const spatial::KdTree tree(std::span<const Vec3>(consolidated.positions));
+  const double r = data_radius_of(tree, consolidated, edges / (3.0 * static_cast<double>(mesh.faces.size())));
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    double d2 = 0.0;
+    tree.nearest(mesh.vertices[v], &d2);
+    out[v] = d2 <= r * r ? 1.0 : 0.0;
+  }
+  return out;
+}
 
 json to_json(const Certificate& c) {
   json regions = json::array();
@@ -51,6 +104,7 @@ json to_json(const Certificate& c) {
                        {"mean_f", r.mean_f},
                        {"has_data", r.has_data},
                        {"reason", r.reason},
+                       {"detail", r.detail},
                        {"views_aimed", r.views_aimed},
                        {"stalls", r.stalls},
                        {"ignored", r.ignored},
@@ -111,6 +165,10 @@ Certificate certificate_from_json(const json& j, const std::string& what) {
     r.has_data = e.at("has_data").get<bool>();
     AUTOSCAN_REQUIRE(e.contains("reason") && e.at("reason").is_string(), "{}.reason: expected a string", w);
     r.reason = e.at("reason").get<std::string>();
+    if (e.contains("detail")) {  // absent before supports (issue 17)
+      AUTOSCAN_REQUIRE(e.at("detail").is_string(), "{}.detail: expected a string", w);
+      r.detail = e.at("detail").get<std::string>();
+    }
     r.views_aimed = integer(e, "views_aimed", w);
     r.stalls = integer(e, "stalls", w);
     r.ignored = integer(e, "ignored", w);
@@ -224,19 +282,42 @@ DataPresence data_presence(const PointCloud& consolidated, double edge_length) {
   DataPresence data;
   if (consolidated.empty()) return data;
   data.tree.emplace(std::span<const Vec3>(consolidated.positions));
-  std::vector<double> spacing;
-  const std::size_t step = std::max<std::size_t>(1, consolidated.size() / 2000);
-  std::size_t idx[2];
-  double d2[2];
-  for (std::size_t i = 0; i < consolidated.size(); i += step)
-    if (data.tree->knn_of_point(i, 1, idx, d2) == 1) spacing.push_back(std::sqrt(d2[0]));
-  double s = 0.0;
-  if (!spacing.empty()) {
-    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2), spacing.end());
-    s = spacing[spacing.size() / 2];
-  }
-  data.radius = 2.0 * std::max(s, edge_length);
+  data.radius = data_radius_of(*data.tree, consolidated, edge_length);
   return data;
+}
+
+// Vertex normals (the mesh's, or area-weighted from its faces) for the support's visibility test.
+std::vector<Vec3> vertex_normals_of(const TriangleMesh& mesh) {
+  const std::size_t nv = mesh.vertices.size();
+  if (mesh.vertex_normals.size() == nv) return mesh.vertex_normals;
+  std::vector<Vec3> normals(nv, Vec3::Zero());
+  for (const auto& t : mesh.faces) {
+    const Vec3 fn =
+        (mesh.vertices[static_cast<std::size_t>(t[1])] - mesh.vertices[static_cast<std::size_t>(t[0])])
+            .cross(mesh.vertices[static_cast<std::size_t>(t[2])] - mesh.vertices[static_cast<std::size_t>(t[0])]);
+    for (int k = 0; k < 3; ++k) normals[static_cast<std::size_t>(t[static_cast<std::size_t>(k)])] += fn;
+  }
+  return normals;
+}
+
+// Per region: whether most of its vertices lie within the contact's tolerance of the support or
+// face it so that no view above the support sees them (docs/supports.md).
+std::vector<char> regions_on_support(const std::vector<std::vector<int>>& region_vertices, const TriangleMesh& mesh,
+                                     const SupportContact* contact, const ScannerSpec& scanner) {
+  std::vector<char> on(region_vertices.size(), 0);
+  if (!contact) return on;
+  const std::vector<Vec3> normals = vertex_normals_of(mesh);
+  for (std::size_t r = 0; r < region_vertices.size(); ++r) {
+    std::size_t touching = 0;
+    for (int v : region_vertices[r]) {
+      const Vec3& p = mesh.vertices[static_cast<std::size_t>(v)];
+      if (contact->plane.distance(p) <= contact->tolerance ||
+          hidden_by_support(p, normals[static_cast<std::size_t>(v)], *contact, scanner))
+        ++touching;
+    }
+    on[r] = 2 * touching >= region_vertices[r].size() ? 1 : 0;
+  }
+  return on;
 }
 
 // The components large enough to be regions (the others add to c.share_scattered), with their
@@ -279,10 +360,11 @@ std::vector<CertificateRegion> measure_regions(std::vector<LowComponent>& acc, c
 // Tracking: each region is matched to the previous iteration's region nearest to it whose extent
 // overlaps it; its stalls, ignored rounds and reason follow. Sets c.regions_aimed_before,
 // c.regions_improved and c.stalled_rounds.
-void track_regions(std::vector<CertificateRegion>& regions, const Certificate* previous, const StopOptions& options,
-                   Certificate& c) {
+void track_regions(std::vector<CertificateRegion>& regions, const std::vector<char>& on_support,
+                   const Certificate* previous, const StopOptions& options, Certificate& c) {
   std::vector<char> prev_not_improved(previous ? previous->regions.size() : 0, 0);
-  for (auto& r : regions) {
+  for (std::size_t ri = 0; ri < regions.size(); ++ri) {
+    auto& r = regions[ri];
     if (previous) {
       double best = std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i < previous->regions.size(); ++i) {
@@ -309,6 +391,10 @@ void track_regions(std::vector<CertificateRegion>& regions, const Certificate* p
     }
     const bool settled_now = r.stalls >= options.stalled_rounds || r.ignored >= options.stalled_rounds;
     r.reason = settled_now ? (r.has_data ? "too_noisy" : "unreachable") : (r.has_data ? "improving" : "not_scanned");
+    if (on_support[ri]) {  // where the object touches its support: no pose sees it
+      r.reason = "unreachable";
+      r.detail = "on the support";
+    }
   }
   if (previous) {
     for (std::size_t i = 0; i < previous->regions.size(); ++i)
@@ -351,7 +437,7 @@ void add_regions_by_area(const std::vector<CertificateRegion>& regions,
 
 Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
                                 const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
-                                const Certificate* previous) {
+                                const Certificate* previous, const SupportContact* contact) {
   Certificate c;
   c.iteration = iteration;
   // The scanner's expected accuracy: its noise model's σ at the optimal distance d_o (§5.1), normal
@@ -371,7 +457,7 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   const DataPresence data = data_presence(consolidated, c.edge_length);
   std::vector<std::vector<int>> region_vertices;
   std::vector<CertificateRegion> regions = measure_regions(acc, mesh, data, options, c, region_vertices);
-  track_regions(regions, previous, options, c);
+  track_regions(regions, regions_on_support(region_vertices, mesh, contact, scanner), previous, options, c);
   add_regions_by_area(regions, region_vertices, mesh, c);
   c.done = c.share_improvable < options.remaining_share;
   return c;
@@ -405,8 +491,9 @@ std::string describe(const Certificate& c, std::size_t max_regions) {
   for (std::size_t i = 0; i < c.regions.size() && i < max_regions; ++i) {
     const auto& r = c.regions[i];
     out += fmt::format(
-        "  region {}: {:.2f} % of the surface at ({:.3f}, {:.3f}, {:.3f}), radius {:.3f}, mean f {:.3f}: {}\n", r.id,
-        100.0 * r.share, r.centroid.x(), r.centroid.y(), r.centroid.z(), r.radius, r.mean_f, r.reason);
+        "  region {}: {:.2f} % of the surface at ({:.3f}, {:.3f}, {:.3f}), radius {:.3f}, mean f {:.3f}: {}{}\n", r.id,
+        100.0 * r.share, r.centroid.x(), r.centroid.y(), r.centroid.z(), r.radius, r.mean_f, r.reason,
+        r.detail.empty() ? std::string() : " (" + r.detail + ")");
   }
   if (c.regions.size() > max_regions)
     out += fmt::format("  ... and {} smaller regions\n", c.regions.size() - max_regions);

@@ -37,6 +37,10 @@ struct CertificateRegion {
   /// "not_scanned", "improving" (views can still improve it), "unreachable", "too_noisy" (views
   /// looked at it and did not).
   std::string reason;
+  /// Why, in words, when the reason alone does not say: "on the support" for the contact region
+  /// (most of its vertices within SupportOptions::contact_tolerance above the support: unreachable
+  /// from the start, not low quality; docs/supports.md). "" otherwise.
+  std::string detail;
   int views_aimed = 0;  ///< views of this iteration's plan whose target lies in it
   /// Rounds in a row whose views looked at it without improving it (a match that no view looked at
   /// keeps its count); settled from StopOptions::stalled_rounds on.
@@ -80,9 +84,16 @@ nlohmann::json to_json(const Certificate& c);
 /// Throws InputError naming `what` for a malformed certificate.
 Certificate certificate_from_json(const nlohmann::json& j, const std::string& what = "certificate");
 
+/// Where the object touches its support: the surface within `tolerance` above `plane`.
+struct SupportContact {
+  SupportPlane plane;
+  double tolerance = 0.0;
+};
+
 /// The certificate of a model: `mesh` with the vertex scalar "f" (or, without it, f of the nearest
 /// of `iso_points`, scalar "f"), `consolidated` the points it was built from (data presence),
 /// `previous` the previous iteration's certificate (with views_aimed filled in), for tracking.
+/// With a `contact`, a region lying mostly within it is "unreachable" ("on the support") at once.
 ///
 /// @param[in] iteration     index of the iteration (stored in the certificate)
 /// @param[in] mesh          #V vertices, #F triangles (outward); optional vertex scalar "f" (#V)
@@ -91,11 +102,18 @@ Certificate certificate_from_json(const nlohmann::json& j, const std::string& wh
 /// @param[in] scanner       its noise model gives expected_accuracy
 /// @param[in] options       thresholds and settling rules (StopOptions)
 /// @param[in] previous      the previous iteration's certificate, or null
+/// @param[in] contact       the support contact (regions lying in it are "unreachable"), or null
 /// @return  #R regions (largest first, ids 0..#R-1) with low_vertices / low_vertex_region of equal
 ///          length (the distinct vertices of all regions); no region for an empty mesh
 Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const PointCloud& iso_points,
                                 const PointCloud& consolidated, const ScannerSpec& scanner, const StopOptions& options,
-                                const Certificate* previous);
+                                const Certificate* previous, const SupportContact* contact = nullptr);
+
+/// Per vertex of `mesh`: 1 where a point of `consolidated` lies within the certificate's data radius
+/// (two median sample spacings, or two mean mesh edges), 0 where screened Poisson closed the surface
+/// without data (the face on the support, holes). The session writes it as mesh.ply's vertex
+/// scalar "supported" when the rig has a support (docs/supports.md).
+std::vector<double> vertex_data_support(const TriangleMesh& mesh, const PointCloud& consolidated);
 
 /// The certificate for a person: a verdict line ("done" or what is missing) and one line per region
 /// (at most `max_regions`, the largest), each with its area share, place, mean f and reason.

@@ -12,6 +12,7 @@
 #include "autoscan/poisson/poisson.hpp"
 #include "autoscan/registration/icp.hpp"
 #include "autoscan/registration/multiway.hpp"
+#include "autoscan/session/supports.hpp"
 
 namespace autoscan::session {
 
@@ -187,6 +188,9 @@ struct SessionOptions {
   /// each vertex takes its colour from.
   ColorWeighting color_weighting = ColorWeighting::quality;
   int color_neighbours = 8;
+  /// Fixtures and the support in the scans: removal before anything else sees them, the contact
+  /// region (docs/supports.md).
+  SupportOptions supports;
 
   /// The session config, session.json's "params" and a simulation's "session" (docs/options.md).
   template <class V>
@@ -219,6 +223,7 @@ struct SessionOptions {
     v("seed", seed);
     v("color_weighting", color_weighting);
     v("color_neighbours", color_neighbours, schema::at_least(1));
+    v("supports", supports);
   }
   /// Throws InputError naming the option for values out of range, in every stage's options
   /// (Session::create calls it: bad options are refused before any scan is acknowledged).

@@ -42,6 +42,24 @@ constexpr std::size_t kIsoLeafSize = 10;
 // Random streams derived from the session seed (independent of restarts and of each other).
 constexpr std::uint64_t kInsertionStream = 0x45713;  // Eq. 6, one sub-stream per scan id
 constexpr std::uint64_t kPlannerStream = 0x9a11e7;   // planner, one sub-stream per iteration
+constexpr std::uint64_t kSupportStream = 0x5aa0b7;   // support-plane RANSAC, one sub-stream per scan id
+
+// A stored scan's removed points (supports.hpp, column "removed") are dropped with their flags, as
+// add_scan kept them out of everything.
+void drop_removed(PointCloud& scan, std::vector<char>& keep) {
+  const auto* removed = scan.scalars.find(kRemovedColumn);
+  if (!removed) return;
+  std::vector<std::size_t> idx;
+  std::vector<char> kept_flags;
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    if ((*removed)[i] == 0.0) {
+      idx.push_back(i);
+      kept_flags.push_back(keep[i]);
+    }
+  scan.scalars.erase(kRemovedColumn);
+  scan.select(idx);
+  keep = std::move(kept_flags);
+}
 
 json matrix_json(const Eigen::Isometry3d& T) {
   json m = json::array();
@@ -306,6 +324,16 @@ json to_json(const ScanRecord& r) {
             {"excluded", r.excluded},
             {"excluded_reason", r.excluded ? json(r.excluded_reason) : json(nullptr)},
             {"seconds", {{"registration", r.seconds_registration}, {"insertion", r.seconds_insertion}}}};
+  // Only when something was removed or a plane is known: older readers see what they saw before.
+  if (r.removed_fixture + r.removed_support_plane > 0 || r.support_plane) {
+    json rm = {{"fixture", r.removed_fixture}, {"support_plane", r.removed_support_plane}};
+    if (r.support_plane) {
+      const auto& pl = *r.support_plane;
+      rm["plane"] = {pl.normal.x(), pl.normal.y(), pl.normal.z(), pl.offset};
+      rm["plane_detected"] = r.support_plane_detected;
+    }
+    j["removed"] = rm;
+  }
   return j;
 }
 
@@ -392,6 +420,28 @@ ScanRecord scan_from_json(const json& j, const std::string& what, int expected_i
     if (j.contains("excluded_reason")) {
       const std::string reason = string_or_null(j.at("excluded_reason"), what + ".excluded_reason");
       if (r.excluded) r.excluded_reason = reason;
+    }
+  }
+  if (j.contains("removed")) {  // absent in sessions written before supports (issue 17)
+    const std::string w = what + ".removed";
+    const json& rm = j.at("removed");
+    AUTOSCAN_REQUIRE(rm.is_object(), "{}: expected an object (got {})", w, brief(rm));
+    const auto most = static_cast<long long>(r.points);
+    r.removed_fixture = static_cast<std::size_t>(integer_in(member(rm, "fixture", w), w + ".fixture", 0, most));
+    r.removed_support_plane =
+        static_cast<std::size_t>(integer_in(member(rm, "support_plane", w), w + ".support_plane", 0, most));
+    AUTOSCAN_REQUIRE(r.removed_fixture + r.removed_support_plane + r.inserted <= r.points,
+                     "{}: more points removed and inserted than the scan has", w);
+    if (rm.contains("plane")) {
+      const json& pl = rm.at("plane");
+      AUTOSCAN_REQUIRE(pl.is_array() && pl.size() == 4, "{}.plane: expected [nx, ny, nz, offset]", w);
+      SupportPlane plane;
+      for (int k = 0; k < 3; ++k) plane.normal[k] = number_in(pl[static_cast<std::size_t>(k)], w + ".plane", -1.0, 1.0);
+      plane.offset = number_in(pl[3], w + ".plane", -kMaxCoordinate, kMaxCoordinate);
+      AUTOSCAN_REQUIRE(std::abs(plane.normal.norm() - 1.0) < 1e-6, "{}.plane: the normal is not a unit vector", w);
+      r.support_plane = plane;
+      if (rm.contains("plane_detected"))
+        r.support_plane_detected = boolean(rm.at("plane_detected"), w + ".plane_detected");
     }
   }
   if (j.contains("registration") && !object_or_null(j.at("registration"), what + ".registration").is_null()) {
@@ -524,6 +574,7 @@ struct Session::Impl {
   Rig rig;
   SessionOptions options;
   std::unique_ptr<planners::Planner> planner;
+  std::unique_ptr<FixtureGeometry> fixture_geometry;  // built at the first scan (supports.hpp)
   Reconstructor reconstructor = reconstruct_model;
   ProgressCallback progress;
 
@@ -799,6 +850,34 @@ struct Session::Impl {
               it.registration["pairs_dropped"].get<std::size_t>(), excluded, res.seconds);
   }
 
+  // The support plane of the session: the first one a scan detected (supports.hpp).
+  std::optional<SupportPlane> known_support_plane() const {
+    for (const auto& r : scans)
+      if (r.support_plane) return r.support_plane;
+    return std::nullopt;
+  }
+
+  // Flags the points of declared fixtures and of the support plane (supports.hpp), before anything
+  // else sees the scan; fills the record's counts. Empty codes: nothing to flag (no fixture declared
+  // and no plane detection), the scan is untouched.
+  std::vector<std::uint8_t> classify_removal(const PointCloud& scan, ScanRecord& rec) {
+    const SupportOptions& o = options.supports;
+    if ((rig.fixtures.empty() || !o.remove_fixtures) && !o.detect_plane) return {};
+    if (!fixture_geometry) fixture_geometry = std::make_unique<FixtureGeometry>(rig);
+    Rng rng = Rng(options.seed).stream(kSupportStream).stream(static_cast<std::uint64_t>(rec.id));
+    RemovalReport report;
+    auto codes = classify_scan(scan, *fixture_geometry, o, known_support_plane(), rng, report);
+    rec.removed_fixture = report.fixture;
+    rec.removed_support_plane = report.support_plane;
+    rec.support_plane = report.plane;
+    rec.support_plane_detected = report.plane_detected;
+    if (report.removed() > 0 || report.plane_detected)
+      log::info("scan {}: {} of {} points removed ({} of declared fixtures, {} on or below the support plane{})",
+                rec.id, report.removed(), scan.size(), report.fixture, report.support_plane,
+                report.plane_detected ? ", plane detected in this scan" : "");
+    return codes;
+  }
+
   // Registers (when a model exists) and selects the points of a scan; returns the registered scan.
   PointCloud register_and_select(PointCloud& scan, ScanRecord& rec, std::vector<char>& keep) {
     Stopwatch clock;
@@ -882,6 +961,14 @@ struct Session::Impl {
     if (it.index > 0) it.delta_mean_f = rec.mean_f - iterations.back().mean_f;
   }
 
+  // Where the object touches its support (declared, or the detected plane): unreachable from the start.
+  std::optional<SupportContact> support_contact() const {
+    if (const auto h = rig.support_height())
+      return SupportContact{SupportPlane{Vec3::UnitZ(), *h}, options.supports.contact_tolerance};
+    if (const auto pl = known_support_plane()) return SupportContact{*pl, options.supports.contact_tolerance};
+    return std::nullopt;
+  }
+
   // The quality certificate (docs/stop-rule.md), tracked from the previous iteration's.
   Certificate certify(const Reconstruction& rec, IterationRecord& it) const {
     Stopwatch cclock;
@@ -889,8 +976,9 @@ struct Session::Impl {
     std::optional<Certificate> previous;
     if (k > 0 && iterations.back().certificate.is_object())
       previous = certificate_from_json(iterations.back().certificate, "previous certificate");
+    const std::optional<SupportContact> contact = support_contact();
     Certificate cert = compute_certificate(k, rec.mesh, rec.iso_points, rec.consolidated, scanner, options.stop,
-                                           previous ? &*previous : nullptr);
+                                           previous ? &*previous : nullptr, contact ? &*contact : nullptr);
     it.seconds["certificate"] = cclock.seconds();
     return cert;
   }
@@ -938,6 +1026,15 @@ struct Session::Impl {
     state.mean_f = rec.mean_f;
     state.scanner = scanner;
     state.rig = rig;
+    // A support plane the session detected binds the planner as a declared one would: no view below.
+    if (!rig.support_height())
+      if (const auto pl = known_support_plane(); pl && pl->normal.z() > 0.5) {
+        Fixture detected;
+        detected.name = "detected support plane";
+        detected.height = pl->offset / pl->normal.z();
+        detected.half_extent = kMaxCoordinate / 2;
+        state.rig.fixtures.push_back(detected);
+      }
     state.acquired_bounds = model.bounds();
     for (const auto& s : scans) state.scan_poses.push_back(s.registered_pose);
     Rng rng = Rng(options.seed).stream(kPlannerStream).stream(static_cast<std::uint64_t>(k));
@@ -979,7 +1076,13 @@ struct Session::Impl {
       // figures) reads back exactly the mesh of this iteration.
       io::WriteOptions exact;
       exact.double_coordinates = true;
-      io::write_mesh(L.mesh(k), rec.mesh, exact);
+      if (support_contact()) {  // which part of the closed surface data supports (docs/supports.md)
+        TriangleMesh marked = rec.mesh;
+        marked.vertex_scalars.set("supported", vertex_data_support(rec.mesh, rec.consolidated));
+        io::write_mesh(L.mesh(k), marked, exact);
+      } else {
+        io::write_mesh(L.mesh(k), rec.mesh, exact);
+      }
       if (rec.surface_colors.size() == rec.mesh.vertices.size()) {
         // The coloured model (docs/colour.md): the same mesh with the surface colours.
         TriangleMesh colored;
@@ -1074,6 +1177,7 @@ struct Session::Impl {
       for (std::size_t k = 0; k < scan.size(); ++k) keep[k] = (*ins)[k] != 0.0 ? 1 : 0;
       scan.scalars.erase("inserted");
     }
+    drop_removed(scan, keep);  // supports.hpp: what add_scan removed stays out
     AUTOSCAN_REQUIRE(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1)) == rec.inserted,
                      "{}: insertion flags disagree with session.json", file.string());
     // As add_scan computed it (a session written before quality-weighted fusion has no column).
@@ -1207,6 +1311,7 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
 
   PointCloud scan = scan_in;
   scan.scalars.erase("inserted");
+  scan.scalars.erase(kRemovedColumn);
   scan.scalars.set("scan_id", std::vector<double>(scan.size(), static_cast<double>(rec.id)));
   if (!(scan.scalars.has("sensor_x") && scan.scalars.has("sensor_y") && scan.scalars.has("sensor_z"))) {
     const Vec3 s = reported_pose.position;
@@ -1217,6 +1322,14 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
   // The depth uncertainty the scanner's model predicts for each point (docs/fusion.md), only when
   // fusion uses it: off, add_scan does no extra work.
   if (m.fusion_on()) scan.scalars.set(kDepthSigmaColumn, predicted_depth_sigma(scan, m.scanner));
+  // Fixtures and the support plane (supports.hpp): flagged, kept in the file, out of everything else.
+  const std::vector<std::uint8_t> removal = m.classify_removal(scan, rec);
+  const std::size_t removed = rec.removed_fixture + rec.removed_support_plane;
+  PointCloud received;
+  if (removed > 0) {
+    received = scan;
+    scan = kept_points(received, removal);
+  }
   std::vector<char> keep;
   PointCloud registered = m.register_and_select(scan, rec, keep);
   rec.added_correction = rec.correction;
@@ -1229,7 +1342,17 @@ ScanRecord Session::add_scan(const PointCloud& scan_in, const Pose& reported_pos
   const fs::path json_path = m.layout().scan_json(rec.id);
   bool wrote_ply = false, wrote_json = false;
   try {
-    if (!scan.empty()) {
+    if (removed > 0) {
+      // Every point received, the removed ones flagged with their reason and never inserted.
+      PointCloud stored = received;
+      std::vector<double> ins(stored.size(), 0.0), why(removal.begin(), removal.end());
+      for (std::size_t i = 0, k = 0; i < stored.size(); ++i)
+        if (removal[i] == 0) ins[i] = keep[k++];
+      stored.scalars.set("inserted", std::move(ins));
+      stored.scalars.set(kRemovedColumn, std::move(why));
+      io::write_point_cloud(ply_path, stored, exact_ply());
+      wrote_ply = true;
+    } else if (!scan.empty()) {
       PointCloud stored = scan;
       std::vector<double> ins(keep.begin(), keep.end());
       stored.scalars.set("inserted", std::move(ins));

@@ -66,6 +66,13 @@ struct ScanRecord {
   /// overlaps other scans but agrees with none (docs/registration.md). The scan file is kept.
   bool excluded = false;
   std::string excluded_reason;
+  /// Points removed before anything else saw them (supports.hpp; the scan file keeps them, column
+  /// "removed"): within a declared fixture's tolerance, and on or below the support plane.
+  std::size_t removed_fixture = 0;
+  std::size_t removed_support_plane = 0;
+  /// The support plane this scan's removal used (detect_plane; none when a support is declared).
+  std::optional<SupportPlane> support_plane;
+  bool support_plane_detected = false;  ///< found in this scan (false: an earlier scan's)
   double seconds_registration = 0.0;
   double seconds_insertion = 0.0;
 };

@@ -12,8 +12,10 @@
 #include "autoscan/core/random.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/scanner/virtual_scanner.hpp"
+#include "autoscan/session/supports.hpp"
 #include "autoscan/shapes/primitives.hpp"
 #include "autoscan/shapes/sampling.hpp"
+#include "autoscan/simulation/fixtures.hpp"
 
 namespace autoscan::simulation {
 namespace {
@@ -42,7 +44,11 @@ ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerS
   s.height = std::max(16, spec.height / o.resolution_divisor);
   scanner::VirtualScannerOptions so;
   so.rig = rig;
+  so.fixtures = fixture_meshes(rig);  // the fixtures occlude here as in the loop
   const scanner::VirtualScanner sc(truth, s, so);
+  // The object's points within a fixture's tolerance are removed by any session (the contact rim,
+  // docs/supports.md): not scannable surface either.
+  const session::FixtureGeometry fixtures(rig);
   const double d = s.optimal_distance();
 
   std::vector<Pose> poses;
@@ -75,17 +81,18 @@ ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerS
     return std::uint64_t(q.x()) | (std::uint64_t(q.y()) << 21) | (std::uint64_t(q.z()) << 42);
   };
   tbb::parallel_for(std::size_t{0}, poses.size(), [&](std::size_t i) {
-    scanner::ScanResult r;
-    try {
-      r = sc.scan(poses[i], i, 1);
-    } catch (const InputError&) {
+    if (sc.refusal(poses[i])) {  // unreachable, below the support, inside: not a view of the reference
       const std::lock_guard lock(m);
       ++out.views_skipped;
       return;
     }
+    const scanner::ScanResult r = sc.scan(poses[i], i, 1);
     std::vector<std::uint64_t> keys;
     keys.reserve(r.cloud.size());
-    for (const Vec3& p : r.cloud.positions) keys.push_back(key(p));
+    for (std::size_t k = 0; k < r.cloud.size(); ++k)  // the object's points only, not the fixtures'
+      if (r.geometry[k] == scanner::ScanResult::kObject &&
+          (fixtures.empty() || fixtures.owner(r.cloud.positions[k]) < 0))
+        keys.push_back(key(r.cloud.positions[k]));
     const std::lock_guard lock(m);
     ++out.views_scanned;
     voxels.insert(keys.begin(), keys.end());

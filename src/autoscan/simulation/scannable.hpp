@@ -11,7 +11,10 @@
 // Views the rig cannot reach or that lie inside the object are skipped, as in a session. The union,
 // voxel-thinned, is the reference: a truth sample within τ of it is *scannable*
 // (eval::coverage_split). Surfaces left out are those no such view captures: deep concavities,
-// triangulation shadows, the underside a turntable rig cannot see.
+// triangulation shadows, the underside a turntable rig cannot see. The rig's fixtures (a turntable,
+// a table; docs/supports.md) are in the scene: they occlude, views below the support are skipped,
+// and their points — and the object's within a fixture's tolerance, which sessions remove — are not
+// in the reference.
 #include <cstdint>
 #include <string>
 

@@ -20,6 +20,7 @@
 #include "autoscan/session/session.hpp"
 #include "autoscan/shapes/normalize.hpp"
 #include "autoscan/shapes/paint.hpp"
+#include "autoscan/simulation/fixtures.hpp"
 
 namespace autoscan::simulation {
 namespace fs = std::filesystem;
@@ -71,6 +72,10 @@ json SimulateResult::to_json() const {
           {"scans", scans},
           {"views", views},
           {"skipped_views", skipped_views},
+          {"fixture_points_scanned", fixture_points_scanned},
+          {"fixture_points_in_model", fixture_points_in_model},
+          {"removed_fixture", removed_fixture},
+          {"removed_support_plane", removed_support_plane},
           {"stop_reason", stop_reason},
           {"mean_f", mean_f},
           {"truth", truth},
@@ -144,6 +149,7 @@ const char* kSimFile = "simulation.json";
 const char* kCheckpointFile = "checkpoints.json";
 const char* kRegistrationFile = "registration.json";
 const char* kSkippedFile = "skipped_views.json";
+const char* kFixtureFile = "fixture_points.json";  // per scan: points the scanner captured on fixtures
 
 bool same_position(const Pose& a, const Pose& b) { return (a.position - b.position).norm() < 1e-12; }
 
@@ -163,7 +169,13 @@ class Loop {
       : dir_(dir), truth_(std::move(truth)), opts_(std::move(opts)), progress_(progress) {
     scanner::VirtualScannerOptions so;
     so.rig = opts_.rig;
+    so.fixtures = fixture_meshes(opts_.rig);
     scanner_ = std::make_unique<scanner::VirtualScanner>(truth_, opts_.scanner, so);
+    if (fs::exists(dir_ / kFixtureFile)) {
+      auto j = json::parse(read_text_file(dir_ / kFixtureFile), nullptr, false);
+      AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_object(), "{}: corrupt file", (dir_ / kFixtureFile).string());
+      fixture_points_ = j;
+    }
     if (opts_.evaluate && opts_.scannable) load_or_build_reference();
     if (fs::exists(dir_ / kCheckpointFile)) {
       auto j = json::parse(read_text_file(dir_ / kCheckpointFile), nullptr, false);
@@ -220,6 +232,18 @@ class Loop {
     r.scans = static_cast<int>(s.scans().size());
     r.views = views_done(s);
     r.skipped_views = static_cast<int>(skipped_views_.size());
+    for (const auto& [k, v] : fixture_points_.items()) r.fixture_points_scanned += v.get<std::size_t>();
+    r.fixture_points_in_model = count_fixture_points(s.model_points(), opts_.rig);
+    for (const auto& rec : s.scans()) {
+      r.removed_fixture += rec.removed_fixture;
+      r.removed_support_plane += rec.removed_support_plane;
+    }
+    if (!opts_.rig.fixtures.empty())
+      log::info(
+          "simulate: fixtures: {} points captured on them, {} removed by the session ({} declared, {} support "
+          "plane), {} left in the model",
+          r.fixture_points_scanned, r.removed_fixture + r.removed_support_plane, r.removed_fixture,
+          r.removed_support_plane, r.fixture_points_in_model);
     if (!s.iterations().empty()) {
       const auto& last = s.iterations().back();
       r.stop_reason = last.stop_reason;
@@ -273,16 +297,20 @@ class Loop {
   bool scan_and_add(session::Session& s, const Pose& pose, int iteration, int view) {
     if (skipped_views_.count({iteration, view})) return false;
     const auto id = static_cast<std::uint64_t>(s.scans().size());
-    scanner::ScanResult r;
-    try {
-      r = scanner_->scan(pose, id, scan_seed());
-    } catch (const InputError& e) {
-      log::warn("simulate: view skipped: {}", e.what());
+    if (const auto why = scanner_->refusal(pose)) {  // a refusal is a value, not an error
+      log::warn("simulate: view skipped: {}", *why);
       skipped_views_.insert({iteration, view});
       json j = json::array();
       for (const auto& [k, v] : skipped_views_) j.push_back({k, v});
       write_text_atomic(dir_ / kSkippedFile, j.dump());
       return false;
+    }
+    const scanner::ScanResult r = scanner_->scan(pose, id, scan_seed());
+    if (!r.fixture_points.empty()) {
+      std::size_t n = 0;
+      for (auto c : r.fixture_points) n += c;
+      fixture_points_[std::to_string(id)] = n;
+      write_text_atomic(dir_ / kFixtureFile, fixture_points_.dump());
     }
     if (r.cloud.empty()) {
       log::info("simulate: scan {} captured no points", id);
@@ -425,6 +453,7 @@ class Loop {
     }
     json t = truth_figures(*mesh, s.model_points(), truth_, opts_.eval, reference(), opts_.session.color_neighbours);
     t["views_taken"] = views_done(s);
+    if (!opts_.rig.fixtures.empty()) t["fixture_points_in_model"] = count_fixture_points(s.model_points(), opts_.rig);
     if (!registration_errors_.empty()) {
       const json e = refresh_registration_errors(s);
       t["registration_error_before"] = e["before"];
@@ -565,11 +594,19 @@ class Loop {
   SimulateOptions opts_;
   ProgressCallback progress_;
   std::unique_ptr<scanner::VirtualScanner> scanner_;
+  json fixture_points_ = json::object();  // scan id -> points captured on fixtures
   json checkpoints_ = json::array();
   std::set<std::pair<int, int>> skipped_views_;  // (iteration or -1 for the blind scan, view index)
   std::optional<PointCloud> reference_;
   json registration_errors_ = json::array();
 };
+
+// The rig the session is told about: without its fixtures when they are not declared.
+Rig session_rig(const SimulateOptions& o) {
+  Rig r = o.rig;
+  if (!o.declare_fixtures) r.fixtures.clear();
+  return r;
+}
 
 }  // namespace
 
@@ -597,6 +634,8 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
     options.session.multiway.robot_translation_sigma = std::max(1e-6, nz.magnitude * nz.pose_translation_sigma);
     options.session.multiway.robot_rotation_sigma_deg = std::max(1e-4, nz.magnitude * nz.pose_rotation_sigma_deg);
   }
+  // An undeclared support is detected (docs/supports.md).
+  if (!options.declare_fixtures && !options.rig.fixtures.empty()) options.session.supports.detect_plane = true;
   options.validate();
   AUTOSCAN_REQUIRE(!truth_in.empty(), "simulate: the mesh has no faces");
   truth_in.validate("simulate: mesh");
@@ -605,6 +644,7 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
                    "{}: already holds a simulation (use --resume to continue it, or another --out)", out.string());
   TriangleMesh truth = truth_in;
   if (options.normalize) normalize_to_benchmark_frame(truth);
+  rest_on_support(truth, options.rig);  // the object stands on its support (docs/supports.md)
   paint_mesh(truth, paint_from_name(options.paint, "simulation: paint"));
   remove_temporaries(out);
   fs::create_directories(out);
@@ -619,7 +659,7 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
               {"source", source},
               {"options", to_json(options)}};
   write_text_atomic(out / kSimFile, sim.dump(2));
-  auto s = session::Session::create(out, options.scanner, options.rig, options.session);
+  auto s = session::Session::create(out, options.scanner, session_rig(options), options.session);
   Loop loop(out, std::move(truth), options, progress);
   return loop.run(s);
 }
@@ -645,6 +685,7 @@ bool is_recorded_truth(const fs::path& out, const TriangleMesh& mesh) {
   const auto rec = recorded_simulation(out);
   TriangleMesh m = mesh;
   if (rec.options.normalize) normalize_to_benchmark_frame(m);
+  rest_on_support(m, rec.options.rig);
   paint_mesh(m, paint_from_name(rec.options.paint, "simulation: paint"));
   const TriangleMesh truth = io::read_mesh(out / "truth.ply");
   return m.vertices == truth.vertices && m.faces == truth.faces;
@@ -657,7 +698,7 @@ SimulateResult resume(const fs::path& out, const ProgressCallback& progress) {
   if (!fs::exists(SessionLayout(out).session_json(), ec)) remove_temporaries(out);
   auto s = fs::exists(SessionLayout(out).session_json(), ec)
                ? session::Session::open(out)
-               : session::Session::create(out, options.scanner, options.rig, options.session);
+               : session::Session::create(out, options.scanner, session_rig(options), options.session);
   Loop loop(out, std::move(truth), options, progress);
   return loop.run(s);
 }

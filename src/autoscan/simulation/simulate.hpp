@@ -41,8 +41,12 @@ struct SimulateOptions {
     o.global_registration = false;
     return o;
   }();
-  ScannerSpec scanner;              ///< the virtual scanner (noise included)
-  Rig rig;                          ///< which poses the robot reaches
+  ScannerSpec scanner;  ///< the virtual scanner (noise included)
+  Rig rig;              ///< which poses the robot reaches, and its fixtures (the scanner's scene)
+  /// The session is told the rig's fixtures (it removes their points by geometry). false: the
+  /// scanner still has them, the session gets the rig without them and detects the support plane
+  /// (session.supports.detect_plane is turned on; docs/supports.md, "Undeclared table").
+  bool declare_fixtures = true;
   scanner::BlindScanOptions blind;  ///< the initial all-round scan (Figure 2(b))
   bool normalize = true;            ///< bring the mesh into the benchmark frame (diagonal 1, centred)
   bool evaluate = true;             ///< ground-truth figures per iteration
@@ -77,6 +81,7 @@ struct SimulateOptions {
     v("scannable_cache", scannable_cache);
     v("report", report);
     v("paint", paint);
+    v("declare_fixtures", declare_fixtures);
   }
   void validate(const std::string& what = "simulation") const;
 };
@@ -91,7 +96,13 @@ struct SimulateResult {
   int iterations = 0;
   int scans = 0;          ///< blind + next-best-view scans
   int views = 0;          ///< next-best-view scans taken
-  int skipped_views = 0;  ///< views the scanner refused (unreachable, inside the object)
+  int skipped_views = 0;  ///< views the scanner refused (unreachable, below the support, inside)
+  /// Fixtures (docs/supports.md): their points the scanner captured over all scans, those left in
+  /// the session's model (within a fixture's tolerance or inside it), and the points the session
+  /// removed (declared fixtures, support plane).
+  std::size_t fixture_points_scanned = 0;
+  std::size_t fixture_points_in_model = 0;
+  std::size_t removed_fixture = 0, removed_support_plane = 0;
   std::string stop_reason;
   double mean_f = 0.0;     ///< last iteration's global confidence
   nlohmann::json truth;    ///< last iteration's ground-truth figures (null when evaluate is off)
