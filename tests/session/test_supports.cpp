@@ -98,7 +98,9 @@ TEST(Supports, UndeclaredTablePlaneIsDetectedAndRemoved) {
   }
   EXPECT_EQ(table_removed, table);                   // every table point
   for (std::size_t i = table; i < scan.size(); ++i)  // and only the sphere's bottom cap
-    if (codes[i]) EXPECT_LT(scan.positions[i].z(), kTable + 0.005);
+    if (codes[i]) {
+      EXPECT_LT(scan.positions[i].z(), kTable + 0.005);
+    }
   EXPECT_LT(sphere_removed, 20u);
 }
 
@@ -150,7 +152,9 @@ TEST(Supports, SessionKeepsRemovedPointsInTheFileAndOutOfTheModelAlsoAfterOpen) 
     std::size_t flagged = 0;
     for (std::size_t i = 0; i < stored.size(); ++i) {
       flagged += why[i] == 1.0;
-      if (why[i] != 0.0) EXPECT_EQ(ins[i], 0.0);
+      if (why[i] != 0.0) {
+        EXPECT_EQ(ins[i], 0.0);
+      }
     }
     EXPECT_EQ(flagged, removed);
     const auto j = nlohmann::json::parse(std::ifstream(dir / "session.json"));

@@ -10,12 +10,12 @@
 #include <vector>
 
 #include "autoscan/core/mesh.hpp"
+#include "autoscan/spatial/triangle.hpp"
 
 namespace autoscan::eval {
 
-/// The point of triangle (a, b, c) nearest to p. Degenerate triangles are handled (the result is
-/// then the nearest point of their edges).
-Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
+/// The point of triangle (a, b, c) nearest to p: the spatial floor's (spatial/triangle.hpp).
+using spatial::closest_point_on_triangle;
 
 struct ClosestPoint {
   double distance = 0;  ///< Euclidean distance from the query to `point`

@@ -8,30 +8,10 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/spatial/kdtree.hpp"
+#include "autoscan/spatial/triangle.hpp"
 
 namespace autoscan::session {
 namespace {
-
-/// Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection, 5.1.5).
-Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double den = 1.0 / (va + vb + vc);
-  return a + ab * (vb * den) + ac * (vc * den);
-}
 
 /// A mesh fixture: its triangles indexed by their centroids; a query looks at the triangles whose
 /// centroid lies within (the search radius + the largest centroid-to-corner distance).
@@ -58,9 +38,9 @@ struct MeshIndex {
     double best = limit;
     for (const auto& [i, d2] : hits) {
       const Tri& f = mesh.faces[i];
-      const Vec3 q = closest_on_triangle(p, mesh.vertices[static_cast<std::size_t>(f[0])],
-                                         mesh.vertices[static_cast<std::size_t>(f[1])],
-                                         mesh.vertices[static_cast<std::size_t>(f[2])]);
+      const Vec3 q = spatial::closest_point_on_triangle(p, mesh.vertices[static_cast<std::size_t>(f[0])],
+                                                        mesh.vertices[static_cast<std::size_t>(f[1])],
+                                                        mesh.vertices[static_cast<std::size_t>(f[2])]);
       best = std::min(best, (q - p).norm());
     }
     return best;
