@@ -252,8 +252,8 @@ std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, cons
   if (iso_points.empty() || points.empty()) return keep;
   const spatial::KdTree nn(iso_points, kIsoLeafSize);
   std::vector<std::size_t> idx(points.size());
-  nn.nearest(points, idx, {});
   const bool oriented = neighbours > 0 && normals.size() == points.size() && iso_normals.size() == iso_points.size();
+  if (!oriented) nn.nearest(points, idx, {});  // the paper's s_k; the oriented look-up sets idx itself
   // A point none of whose nearest iso-points faces its way measures a sheet the model does not have
   // yet (the far side of a thin wall, the ceiling of a channel the surface bridges): f = 0 there.
   std::vector<char> unrepresented(points.size(), 0);
