@@ -11,6 +11,7 @@
 #include <set>
 
 #include "autoscan/core/error.hpp"
+#include "autoscan/nbv/internal.hpp"
 #include "autoscan/nbv/nbv.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/spatial/ray_scene.hpp"
@@ -330,6 +331,64 @@ TEST(NbvJoint, ARegionUnderTheHoodGetsAViewThatMeasuresIt) {
   for (const auto& v : r1.views)
     if (v.region) best_region = std::max(best_region, measured(v));
   EXPECT_GE(best_region, hood.size() / 10) << "the region view does not measure the hood's hidden walls";
+}
+
+// The choice itself (nbv/internal.hpp): a region view that measures a hole of 100 iso-points (need
+// 1) and two field views that each measure 1000 other iso-points a little (need 0.4; gains 400 and
+// 400 against 100). With a budget of two, region views first (the default) spends one on the hole;
+// the plain greedy choice spends both on the field views, and the hole goes without.
+TEST(NbvJoint, ARegionViewIsTakenBeforeViewsThatRaiseMoreSurfaceALittle) {
+  detail::IsoData iso;
+  const std::size_t n = 2100;
+  iso.need.assign(n, 0.4);
+  iso.f.assign(n, 0.6);
+  for (std::size_t k = 2000; k < n; ++k) {
+    iso.need[k] = 1.0;
+    iso.f[k] = 0.0;
+  }
+  iso.p.assign(n, Vec3::Zero());
+  auto view = [](std::size_t from, std::size_t to, bool region) {
+    detail::PoolView pv;
+    for (std::size_t k = from; k < to; ++k) {
+      pv.coverage.index.push_back(static_cast<std::uint32_t>(k));
+      pv.coverage.q.push_back(1.0f);
+    }
+    pv.view.region = region;
+    pv.view.region_id = region ? 0 : -1;
+    pv.view.target = Vec3(double(from), 0, 0);
+    return pv;
+  };
+  auto pool = [&] {
+    return std::vector<detail::PoolView>{view(0, 1000, false), view(1000, 2000, false), view(2000, 2100, true)};
+  };
+  NbvOptions o;
+  o.max_views = 2;
+  NbvDiagnostics d1, d2;
+  auto p1 = pool();
+  const auto first = detail::select_joint(p1, iso, o, d1);
+  ASSERT_EQ(first.size(), 2u);
+  EXPECT_TRUE(first[0].region);
+  EXPECT_NEAR(first[0].gain, 100.0, 1e-3);
+  EXPECT_NEAR(first[1].gain, 400.0, 1e-3);
+  EXPECT_EQ(d1.region_views_chosen, 1u);
+  EXPECT_NEAR(d1.gain, 500.0, 1e-3);
+  NbvOptions plain = o;
+  plain.region_views_first = false;
+  auto p2 = pool();
+  const auto greedy = detail::select_joint(p2, iso, plain, d2);
+  ASSERT_EQ(greedy.size(), 2u);
+  EXPECT_FALSE(greedy[0].region);
+  EXPECT_FALSE(greedy[1].region);
+  EXPECT_EQ(d2.region_views_chosen, 0u);
+  EXPECT_NEAR(d2.gain, 800.0, 1e-3);
+  // A region view that adds less than min_view_gain is not forced in.
+  NbvOptions strict = o;
+  strict.min_view_gain = 0.1;  // 210 of need x quality
+  NbvDiagnostics d3;
+  auto p3 = pool();
+  const auto s3 = detail::select_joint(p3, iso, strict, d3);
+  ASSERT_EQ(s3.size(), 2u);
+  EXPECT_EQ(d3.region_views_chosen, 0u);
 }
 
 TEST(NbvPlan, UnreachableViewsAreDroppedAndCounted) {

@@ -273,6 +273,72 @@ TEST(Supports, CubeOnAPlaneHasAnUnreachableBottomAndReachableOtherFaces) {
   EXPECT_NEAR(plain.share_improvable, 2.0 / 6.0, 1e-9);
 }
 
+TEST(Supports, TheSideJustAboveTheSupportIsNotSwallowedByTheFaceOnIt) {
+  // One connected mesh: the bottom face [0, 1]² at z = 0 (on the support, facing it) and a wall at
+  // x = 1 rising to z = 0.5 (facing +X), sharing the bottom's edge. Low f on the bottom and on the
+  // wall's lower half: one low component by connectivity, of which most vertices lie on the
+  // support. The wall's part above the contact is a region of its own that views can still reach.
+  TriangleMesh m;
+  std::vector<double> f;
+  constexpr int n = 11, rows = 6;  // bottom n × n; the wall n columns × rows (row 0 = the shared edge)
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.vertices.emplace_back(i / double(n - 1), j / double(n - 1), 0.0);
+      f.push_back(0.1);
+    }
+  const auto bottom = [&](int i, int j) { return j * n + i; };
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {  // normal −Z
+      m.faces.push_back({bottom(i, j), bottom(i + 1, j + 1), bottom(i + 1, j)});
+      m.faces.push_back({bottom(i, j), bottom(i, j + 1), bottom(i + 1, j + 1)});
+    }
+  std::vector<int> wall(static_cast<std::size_t>(n * rows));
+  for (int r = 0; r < rows; ++r)
+    for (int j = 0; j < n; ++j) {
+      if (r == 0) {
+        wall[static_cast<std::size_t>(r * n + j)] = bottom(n - 1, j);
+        continue;
+      }
+      const double z = 0.5 * r / double(rows - 1);
+      wall[static_cast<std::size_t>(r * n + j)] = static_cast<int>(m.vertices.size());
+      m.vertices.emplace_back(1.0, j / double(n - 1), z);
+      f.push_back(z <= 0.3 ? 0.1 : 0.9);
+    }
+  const auto w = [&](int r, int j) { return wall[static_cast<std::size_t>(r * n + j)]; };
+  for (int r = 0; r + 1 < rows; ++r)
+    for (int j = 0; j + 1 < n; ++j) {  // normal +X
+      m.faces.push_back({w(r, j), w(r, j + 1), w(r + 1, j + 1)});
+      m.faces.push_back({w(r, j), w(r + 1, j + 1), w(r + 1, j)});
+    }
+  m.vertex_scalars.set("f", f);
+  PointCloud iso;
+  iso.positions = m.vertices;
+  iso.scalars.set("f", f);
+  const SupportContact contact{SupportPlane{Vec3::UnitZ(), 0.0}, 0.01};
+  StopOptions options;
+  options.confidence_ratio = 0.0;  // the threshold 0.5 as such
+  const auto c = compute_certificate(0, m, iso, PointCloud{}, ScannerSpec{}, options, nullptr, &contact);
+  ASSERT_EQ(c.regions.size(), 2u);
+  int on_support = 0, on_wall = 0;
+  for (const auto& r : c.regions) {
+    if (r.centroid.z() < 0.01) {
+      ++on_support;
+      EXPECT_EQ(r.reason, "unreachable");
+      EXPECT_EQ(r.detail, "on the support");
+      EXPECT_NEAR(r.area, 1.05, 1e-9);  // and the wall's lowest triangles with two corners on it
+    } else {
+      ++on_wall;
+      EXPECT_EQ(r.reason, "not_scanned");
+      EXPECT_EQ(r.detail, "");
+      // From the first triangles with a single corner on the support up to the triangles between
+      // z = 0.3 and 0.4 that have two corners at f 0.1 (mean f 0.37): 0.35 of wall less 0.05.
+      EXPECT_NEAR(r.area, 0.3, 1e-9);
+    }
+  }
+  EXPECT_EQ(on_support, 1);
+  EXPECT_EQ(on_wall, 1);
+}
+
 TEST(Supports, MeshSaysWhichPartDataSupports) {
   // Data on every face of the cube but the bottom one (the face on the support).
   const TriangleMesh cube = cube_mesh();

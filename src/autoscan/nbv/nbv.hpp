@@ -81,6 +81,13 @@ struct NbvOptions {
   int candidate_pool = 64;                 ///< joint: the best per-cell maxima (by g) evaluated as candidates
   double min_view_gain = 0.001;            ///< joint: a view must add at least this times #iso-points of need x quality
   bool region_views = true;                ///< joint: search views for low-confidence regions the field misses
+  /// joint: the region views are picked before the greedy choice over the rest (each while it still
+  /// adds min_view_gain): a hole the field's views miss gets its view in every round until the
+  /// certificate settles it, instead of losing to views that raise f a little everywhere.
+  bool region_views_first = true;
+  /// joint: region views searched per region and round, each for what the earlier ones leave, while
+  /// the candidates measure less than half of the region's need (a channel's walls face different ways).
+  int region_views_per_region = 3;
   /// joint: iso-points at or above this f are done; below, their need is (done_confidence - f) /
   /// done_confidence (1: the paper's 1 - f, the default) and those below region_confidence form regions.
   /// Measured on the demo (docs/planners.md): 0.5 spent 14 views for 96.7 % of the scannable surface,
@@ -90,6 +97,11 @@ struct NbvOptions {
   int region_min_points = 10;      ///< joint: smaller regions are left to the field
   int region_samples = 64;         ///< joint: region points tested per candidate position
   int region_positions = 4000;     ///< joint: candidate voxels tested per region (evenly thinned)
+  /// Eq. 5: the candidate targets s_k' in Upsilon_k scored per view, evenly thinned to at most this
+  /// many (the seed s_k always among them); 0 scores every one, as the paper's Eq. 5 does. Each costs
+  /// a pass over the iso-points in the view's reach; targets a few spacings apart aim the frustum
+  /// alike (docs/planners.md, "Plan time").
+  int aim_targets = 96;
 
   template <class V>
   void visit_fields(V& v) {
@@ -110,11 +122,14 @@ struct NbvOptions {
     v("candidate_pool", candidate_pool, schema::at_least(1));
     v("min_view_gain", min_view_gain, schema::at_least(0));
     v("region_views", region_views);
+    v("region_views_first", region_views_first);
+    v("region_views_per_region", region_views_per_region, schema::at_least(1));
     v("done_confidence", done_confidence, schema::open_closed(0, 1));
     v("region_confidence", region_confidence, schema::open_closed(0, 1));
     v("region_min_points", region_min_points, schema::at_least(1));
     v("region_samples", region_samples, schema::at_least(1));
     v("region_positions", region_positions, schema::at_least(1));
+    v("aim_targets", aim_targets, schema::at_least(0));
   }
   /// Throws InputError naming the option for values out of range.
   void validate(const std::string& what = "nbv") const;

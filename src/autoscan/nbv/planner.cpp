@@ -133,6 +133,18 @@ AimResult aim(const Vec3& v, int seed, const IsoData& iso, const spatial::KdTree
     cands.push_back(c);
   }
   if (cands.empty()) return res;
+  if (o.aim_targets > 0 && cands.size() > static_cast<std::size_t>(o.aim_targets)) {
+    // Evenly thinned (NbvOptions::aim_targets), the seed kept: Eq. 5 scores these.
+    const std::size_t keep = static_cast<std::size_t>(o.aim_targets);
+    std::vector<std::uint32_t> thin;
+    thin.reserve(keep + 1);
+    for (std::size_t t = 0; t < keep; ++t) thin.push_back(cands[t * cands.size() / keep]);
+    if (std::find(cands.begin(), cands.end(), static_cast<std::uint32_t>(sk)) != cands.end() &&
+        std::find(thin.begin(), thin.end(), static_cast<std::uint32_t>(sk)) == thin.end())
+      thin.push_back(static_cast<std::uint32_t>(sk));
+    std::sort(thin.begin(), thin.end());
+    cands = std::move(thin);
+  }
   std::vector<std::pair<double, double>> score(cands.size());  // (eta, zeta)
   tbb::parallel_for(std::size_t(0), cands.size(), [&](std::size_t t) {
     const Mat3 R = Pose::look_at(v, iso.p[cands[t]]).rotation();

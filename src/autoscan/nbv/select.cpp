@@ -161,6 +161,12 @@ struct RegionSearch {
   NbvDiagnostics& diag;
   std::vector<std::size_t> positions;  // candidate voxels
   double cos_max = 0.0;
+  const std::vector<float>* covered = nullptr;  // best quality the pool measures per iso-point so far
+
+  /// What measuring sample k with quality q adds beyond the pool's views so far.
+  double added(std::uint32_t k, double q) const {
+    return iso.need[k] * std::max(0.0, q - (covered ? double((*covered)[k]) : 0.0));
+  }
 
   /// Quality the scanner at v (projector at `projector`) measures sample k with (0: not at all).
   double measures(const Vec3& v, const Vec3& projector, std::uint32_t k, std::size_t* nrays) const {
@@ -197,7 +203,7 @@ struct RegionSearch {
       const Vec3 v = vf.grid.center(tested[t]);
       const Vec3 projector = projector_at(v, centre);
       double s = 0.0;
-      for (const auto k : samples) s += iso.need[k] * measures(v, projector, k, &rays[t]);
+      for (const auto k : samples) s += added(k, measures(v, projector, k, &rays[t]));
       scored[t] = {s, tested[t]};
     });
     for (const auto r : rays) diag.rays_select += r;
@@ -216,10 +222,11 @@ struct RegionSearch {
     Vec3 mid = Vec3::Zero();
     double wsum = 0.0;
     for (const auto k : samples) {
-      if (!(measures(v, projector, k, nullptr) > 0.0)) continue;
+      const double w = added(k, measures(v, projector, k, nullptr));
+      if (!(w > 0.0)) continue;
       seen.push_back(k);
-      mid += iso.need[k] * iso.p[k];
-      wsum += iso.need[k];
+      mid += w * iso.p[k];
+      wsum += w;
     }
     if (!(wsum > 0.0)) return std::nullopt;
     mid /= wsum;
@@ -284,13 +291,17 @@ void add_region_views(std::vector<PoolView>& pool, const ViewingField& vf, const
     for (std::size_t t = 0; t < c.index.size(); ++t) best_q[c.index[t]] = std::max(best_q[c.index[t]], c.q[t]);
   };
   for (const auto& pv : pool) absorb(pv.coverage);
+  search.covered = &best_q;
   for (std::size_t rank = 0; rank < regions.size(); ++rank) {
-    // Covered well enough by the candidates so far? Then the joint choice weighs it already.
-    double covered = 0.0;
-    for (const auto k : regions[rank]) covered += iso.need[k] * best_q[k];
-    if (covered >= 0.5 * need[rank]) continue;
-    ++diag.regions_searched;
-    if (auto pv = search.view_for(regions[rank], static_cast<int>(rank))) {
+    // Until the candidates so far measure half of its need (the joint choice weighs it then), up to
+    // region_views_per_region views, each searched for what the earlier ones leave.
+    for (int n = 0; n < o.region_views_per_region; ++n) {
+      double covered = 0.0;
+      for (const auto k : regions[rank]) covered += iso.need[k] * best_q[k];
+      if (covered >= 0.5 * need[rank]) break;
+      if (n == 0) ++diag.regions_searched;
+      auto pv = search.view_for(regions[rank], static_cast<int>(rank));
+      if (!pv) break;
       absorb(pv->coverage);
       pool.push_back(std::move(*pv));
       ++diag.region_views;
@@ -316,9 +327,32 @@ std::vector<NbvView> select_joint(std::vector<PoolView>& pool, const IsoData& is
   auto cmp = [](const Entry& a, const Entry& b) {
     return a.first < b.first || (a.first == b.first && a.second > b.second);
   };
-  std::priority_queue<Entry, std::vector<Entry>, decltype(cmp)> heap(cmp);
-  for (std::size_t i = 0; i < pool.size(); ++i) heap.push({gain(pool[i]), i});
   std::vector<NbvView> chosen;
+  auto take = [&](std::size_t i, double g) {
+    for (std::size_t t = 0; t < pool[i].coverage.index.size(); ++t) {
+      const auto k = pool[i].coverage.index[t];
+      cur[k] = std::max(cur[k], double(pool[i].coverage.q[t]));
+    }
+    pool[i].view.gain = g;
+    diag.gain += g;
+    if (pool[i].view.region) ++diag.region_views_chosen;
+    chosen.push_back(pool[i].view);
+  };
+  // Region views first (largest region first, the order they were added in), each while it adds,
+  // at most half the round's budget (rounded up): the field's views keep the other half.
+  std::vector<char> taken(pool.size(), 0);
+  const int forced = (o.max_views + 1) / 2;
+  if (o.region_views_first)
+    for (std::size_t i = 0; i < pool.size() && static_cast<int>(chosen.size()) < forced; ++i) {
+      if (!pool[i].view.region) continue;
+      const double g = gain(pool[i]);
+      if (!(g >= min_gain) || !(g > 0.0)) continue;
+      take(i, g);
+      taken[i] = 1;
+    }
+  std::priority_queue<Entry, std::vector<Entry>, decltype(cmp)> heap(cmp);
+  for (std::size_t i = 0; i < pool.size(); ++i)
+    if (!taken[i]) heap.push({gain(pool[i]), i});
   while (!heap.empty() && static_cast<int>(chosen.size()) < o.max_views) {
     const auto [bound, i] = heap.top();
     heap.pop();
@@ -328,14 +362,7 @@ std::vector<NbvView> select_joint(std::vector<PoolView>& pool, const IsoData& is
       continue;
     }
     if (!(g >= min_gain) || !(g > 0.0)) break;
-    for (std::size_t t = 0; t < pool[i].coverage.index.size(); ++t) {
-      const auto k = pool[i].coverage.index[t];
-      cur[k] = std::max(cur[k], double(pool[i].coverage.q[t]));
-    }
-    pool[i].view.gain = g;
-    diag.gain += g;
-    if (pool[i].view.region) ++diag.region_views_chosen;
-    chosen.push_back(pool[i].view);
+    take(i, g);
   }
   if (chosen.empty() && !pool.empty())
     diag.messages.push_back(

@@ -1,6 +1,7 @@
 #include "autoscan/session/certificate.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -216,12 +217,24 @@ struct LowComponent {
 
 // The triangles whose mean f is below c.threshold, joined through shared vertices into components
 // (union-find). Sets c.surface_area, c.edge_length; `low_area` is the area of all low triangles.
-std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::vector<double>& f, Certificate& c,
-                                         double& low_area) {
+//
+// With a support, a low triangle whose corners lie mostly on it (`on_support`, per vertex; empty
+// without a support) joins only low triangles of its own kind: the face resting on the support and
+// the object's side just above it are different regions (the first no view sees, the second the
+// planner must still reach), even where they meet at a rim.
+std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::vector<double>& f,
+                                         const std::vector<char>& on_support, Certificate& c, double& low_area) {
   const std::size_t nv = mesh.vertices.size(), nf = mesh.faces.size();
   std::vector<double> area(nf), face_f(nf);
   std::vector<char> low(nf, 0);
-  std::vector<int> parent(nv);
+  // Union-find over (vertex, kind): kind 1 for triangles on the support, ids offset by nv.
+  const auto kind_of = [&](const Tri& tri) -> int {
+    if (on_support.empty()) return 0;
+    int n = 0;
+    for (int v : tri) n += on_support[static_cast<std::size_t>(v)] ? 1 : 0;
+    return n >= 2 ? 1 : 0;
+  };
+  std::vector<int> parent(2 * nv);
   std::iota(parent.begin(), parent.end(), 0);
   double edge_sum = 0.0;
   for (std::size_t t = 0; t < nf; ++t) {
@@ -237,22 +250,23 @@ std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::ve
     c.surface_area += area[t];
     if (face_f[t] < c.threshold) {
       low[t] = 1;
-      const int r0 = find_root(parent, tri[0]);
+      const int offset = kind_of(tri) * static_cast<int>(nv);
+      const int r0 = find_root(parent, tri[0] + offset);
       for (int k = 1; k < 3; ++k) {
-        const int rk = find_root(parent, tri[static_cast<std::size_t>(k)]);
+        const int rk = find_root(parent, tri[static_cast<std::size_t>(k)] + offset);
         if (rk != r0) parent[static_cast<std::size_t>(rk)] = r0;
       }
     }
   }
   c.edge_length = edge_sum / (3.0 * static_cast<double>(nf));
-  std::vector<int> slot(nv, -1);
+  std::vector<int> slot(2 * nv, -1);
   std::vector<LowComponent> acc;
   low_area = 0.0;
   if (c.surface_area <= 0.0) return acc;
   for (std::size_t t = 0; t < nf; ++t) {
     if (!low[t]) continue;
     const auto& tri = mesh.faces[t];
-    const int root = find_root(parent, tri[0]);
+    const int root = find_root(parent, tri[0] + kind_of(tri) * static_cast<int>(nv));
     if (slot[static_cast<std::size_t>(root)] < 0) {
       slot[static_cast<std::size_t>(root)] = static_cast<int>(acc.size());
       acc.emplace_back();
@@ -302,19 +316,28 @@ std::vector<Vec3> vertex_normals_of(const TriangleMesh& mesh) {
 
 // Per region: whether most of its vertices lie within the contact's tolerance of the support or
 // face it so that no view above the support sees them (docs/supports.md).
-std::vector<char> regions_on_support(const std::vector<std::vector<int>>& region_vertices, const TriangleMesh& mesh,
-                                     const SupportContact* contact, const ScannerSpec& scanner) {
-  std::vector<char> on(region_vertices.size(), 0);
-  if (!contact) return on;
+// Per vertex: within the contact's tolerance of the support (or below it), or facing it so that no
+// view above the support sees it. Empty without a contact.
+std::vector<char> vertices_on_support(const TriangleMesh& mesh, const SupportContact* contact,
+                                      const ScannerSpec& scanner) {
+  if (!contact) return {};
   const std::vector<Vec3> normals = vertex_normals_of(mesh);
+  std::vector<char> on(mesh.vertices.size(), 0);
+  for (std::size_t v = 0; v < on.size(); ++v) {
+    const Vec3& p = mesh.vertices[v];
+    on[v] = contact->plane.distance(p) <= contact->tolerance || hidden_by_support(p, normals[v], *contact, scanner);
+  }
+  return on;
+}
+
+// Per region: whether most of its vertices are on the support (vertices_on_support).
+std::vector<char> regions_on_support(const std::vector<std::vector<int>>& region_vertices,
+                                     const std::vector<char>& vertex_on_support) {
+  std::vector<char> on(region_vertices.size(), 0);
+  if (vertex_on_support.empty()) return on;
   for (std::size_t r = 0; r < region_vertices.size(); ++r) {
     std::size_t touching = 0;
-    for (int v : region_vertices[r]) {
-      const Vec3& p = mesh.vertices[static_cast<std::size_t>(v)];
-      if (contact->plane.distance(p) <= contact->tolerance ||
-          hidden_by_support(p, normals[static_cast<std::size_t>(v)], *contact, scanner))
-        ++touching;
-    }
+    for (int v : region_vertices[r]) touching += vertex_on_support[static_cast<std::size_t>(v)] ? 1 : 0;
     on[r] = 2 * touching >= region_vertices[r].size() ? 1 : 0;
   }
   return on;
@@ -451,13 +474,14 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   const std::vector<double> f = vertex_confidence(mesh, iso_points);
   c.threshold = confidence_threshold(f, options);
   double low_area = 0.0;
-  std::vector<LowComponent> acc = low_components(mesh, f, c, low_area);
+  const std::vector<char> on_support = vertices_on_support(mesh, contact, scanner);
+  std::vector<LowComponent> acc = low_components(mesh, f, on_support, c, low_area);
   if (c.surface_area <= 0.0) return c;
   c.share_confident = 1.0 - low_area / c.surface_area;
   const DataPresence data = data_presence(consolidated, c.edge_length);
   std::vector<std::vector<int>> region_vertices;
   std::vector<CertificateRegion> regions = measure_regions(acc, mesh, data, options, c, region_vertices);
-  track_regions(regions, regions_on_support(region_vertices, mesh, contact, scanner), previous, options, c);
+  track_regions(regions, regions_on_support(region_vertices, on_support), previous, options, c);
   add_regions_by_area(regions, region_vertices, mesh, c);
   c.done = c.share_improvable < options.remaining_share;
   return c;
