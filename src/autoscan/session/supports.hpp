@@ -47,8 +47,10 @@ struct SupportOptions {
   double max_below_share = 0.01;   ///< a support has at most this share of the points below it
   /// The contact region: the model's surface within this distance above the support is where the
   /// object touches it — unreachable, not low quality (certificate reason "unreachable", detail
-  /// "on the support").
-  double contact_tolerance = 0.01;
+  /// "on the support"). Just above the removal's tolerance (plane_tolerance, a fixture's 0.004):
+  /// the object's side above that band is scanned and kept, so views must still reach it (0.01
+  /// settled a 6 mm band of the built-in object's wall as unreachable; docs/supports.md).
+  double contact_tolerance = 0.005;
 
   template <class V>
   void visit_fields(V& v) {
