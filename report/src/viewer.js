@@ -300,7 +300,7 @@ export function start() {
     const c = box.getCenter(new THREE.Vector3());
     sceneRadius = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
     controls.target.copy(c);
-    camera.position.copy(c).add(new THREE.Vector3(1.1, -1.4, 0.9).normalize().multiplyScalar(sceneRadius * 3.2));
+    camera.position.copy(c).add(new THREE.Vector3(1.1, -1.4, 0.9).normalize().multiplyScalar(sceneRadius * 2.6));
     camera.near = sceneRadius * 0.01;
     camera.far = sceneRadius * 100;
     controls.update();

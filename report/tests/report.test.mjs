@@ -299,8 +299,9 @@ for (const width of [1280, 800]) {
     await shot(p, `report-${width}-full.png`);
     const r = await p.evaluate(() => {
       const s = document.scrollingElement;
-      const t = document.getElementById('iterations-table').getBoundingClientRect();
-      const box = t.parentElement.getBoundingClientRect();
+      const table = document.getElementById('iterations-table');
+      const t = table.getBoundingClientRect();
+      const box = table.parentElement.getBoundingClientRect();
       return { sw: s.scrollWidth, cw: s.clientWidth, tableRight: t.right, boxRight: box.right, canvas: document.querySelector('#viewport canvas').getBoundingClientRect().width };
     });
     await p.close();

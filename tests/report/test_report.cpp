@@ -64,7 +64,7 @@ nlohmann::json region(int id, const Vec3& centroid, double radius, double share,
 // The certificate of the synthetic session's last iteration: one region of each reason, on the
 // sphere's side that the report's camera looks at (towards (1.1, -1.4, 0.9)), apart from each other.
 nlohmann::json synthetic_certificate() {
-  auto on_sphere = [](double x, double y, double z) { return Vec3(x, y, z).normalized() * 0.48; };
+  auto on_sphere = [](double x, double y, double z) -> Vec3 { return Vec3(x, y, z).normalized() * 0.48; };
   nlohmann::json regions = nlohmann::json::array();
   regions.push_back(region(0, on_sphere(1.0, -0.3, 0.5), 0.07, 0.03, "not_scanned"));
   regions.push_back(region(1, on_sphere(0.3, -1.0, 0.5), 0.07, 0.02, "improving"));

@@ -100,7 +100,7 @@ h3{margin:10px 0 6px}
 .figure b{display:block;font-size:18px}.figure span{font-size:12px;color:#555}
 .scroll{overflow-x:auto;max-width:100%}
 main{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,360px);gap:12px;padding:0 12px}
-@media (max-width:960px){main{grid-template-columns:minmax(0,1fr)}}
+@media (max-width:960px){main{grid-template-columns:minmax(0,1fr)}td,th{padding:2px 4px}th{white-space:normal}}
 #viewport{height:62vh;min-height:380px;background:#f4f4f4;border:1px solid #ddd;border-radius:6px;overflow:hidden}
 .controls{display:flex;flex-wrap:wrap;gap:6px 14px;align-items:center;margin:6px 0;font-size:14px}
 #iteration{width:220px;max-width:50vw}
