@@ -100,7 +100,6 @@ h3{margin:10px 0 6px}
 .figure b{display:block;font-size:18px}.figure span{font-size:12px;color:#555}
 .scroll{overflow-x:auto;max-width:100%}
 main{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,360px);gap:12px;padding:0 12px}
-@media (max-width:960px){main{grid-template-columns:minmax(0,1fr)}td,th{padding:2px 4px}th{white-space:normal}}
 #viewport{height:62vh;min-height:380px;background:#f4f4f4;border:1px solid #ddd;border-radius:6px;overflow:hidden}
 .controls{display:flex;flex-wrap:wrap;gap:6px 14px;align-items:center;margin:6px 0;font-size:14px}
 #iteration{width:220px;max-width:50vw}
@@ -116,6 +115,8 @@ td,th{padding:2px 8px;border-bottom:1px solid #eee;text-align:right;white-space:
 #colorbar{display:inline-block;position:relative;width:200px;height:12px;vertical-align:middle;border:1px solid #999}
 #colorbar-threshold{position:absolute;top:-4px;width:2px;height:20px;background:#000}
 .history{padding:0 12px 12px}
+@media (max-width:960px){main{grid-template-columns:minmax(0,1fr)}table{font-size:12px}td,th{padding:2px 3px}
+th{white-space:normal}}
 )CSS";
 
 // Display decimation of large meshes by vertex clustering: vertices are merged per cell of a grid

@@ -22,10 +22,10 @@
 namespace autoscan::report {
 
 struct ReportOptions {
-  std::size_t max_points = 300000;    ///< display budget per iteration's point cloud
+  std::size_t max_points = 100000;      ///< display budget per iteration's point cloud (hidden by default)
   std::size_t max_mesh_faces = 200000;  ///< larger meshes are decimated for display (vertex clustering)
-  std::uint64_t seed = 1;             ///< for the display decimation
-  std::string title;                  ///< page title; default: the session directory's name
+  std::uint64_t seed = 1;               ///< for the display decimation
+  std::string title;                    ///< page title; default: the session directory's name
 };
 
 struct ReportResult {
