@@ -45,32 +45,37 @@ before(async () => {
   assert.ok(html && existsSync(html), `AUTOSCAN_REPORT_HTML must name an existing report (got ${html})`);
   browser = await chromium.launch({ executablePath, headless: true, args: chromiumArgs });
   page = await openPage(1280);
+  await installReadCanvas(page);
   await shot(page, 'report-1280.png');
 });
 
 after(async () => { await browser?.close(); });
 
-// The canvas' pixels (RGBA, device pixels) after a render.
-async function canvasPixels(p = page) {
-  return p.evaluate(() => {
-    window.autoscanReport.render();
-    const src = document.querySelector('#viewport canvas');
-    const c = document.createElement('canvas');
-    c.width = src.width; c.height = src.height;
-    const ctx = c.getContext('2d');
-    ctx.drawImage(src, 0, 0);
-    return { width: c.width, height: c.height, data: Array.from(ctx.getImageData(0, 0, c.width, c.height).data) };
+// Installs window.readCanvas() in the page: the 3D canvas' pixels (ImageData, device pixels) after a
+// render. The tests analyse them in the page: moving millions of numbers to node is slow.
+async function installReadCanvas(p) {
+  await p.evaluate(() => {
+    window.readCanvas = () => {
+      window.autoscanReport.render();
+      const src = document.querySelector('#viewport canvas');
+      const c = document.createElement('canvas');
+      c.width = src.width; c.height = src.height;
+      const ctx = c.getContext('2d');
+      ctx.drawImage(src, 0, 0);
+      return ctx.getImageData(0, 0, c.width, c.height);
+    };
+    window.isBackground = (d, i) => Math.abs(d[i] - 244) + Math.abs(d[i + 1] - 244) + Math.abs(d[i + 2] - 244) <= 30;
   });
 }
 
-const isBackground = (d, i) => Math.abs(d[i] - 244) + Math.abs(d[i + 1] - 244) + Math.abs(d[i + 2] - 244) <= 30;
-
 // Share of canvas pixels that differ from the background colour.
 async function nonBlankShare() {
-  const { data } = await canvasPixels();
-  let n = 0;
-  for (let i = 0; i < data.length; i += 4) if (!isBackground(data, i)) ++n;
-  return n / (data.length / 4);
+  return page.evaluate(() => {
+    const { data } = window.readCanvas();
+    let n = 0;
+    for (let i = 0; i < data.length; i += 4) if (!window.isBackground(data, i)) ++n;
+    return n / (data.length / 4);
+  });
 }
 
 async function setChecked(id, on) {
@@ -111,16 +116,14 @@ test('each region is marked in the colour of its reason at its centroid, and the
   const regions = await page.evaluate(() => window.autoscanReport.state().regions);
   assert.equal(regions.length, 4);
   assert.deepEqual(regions.map((r) => r.reason).sort(), ['improving', 'not_scanned', 'too_noisy', 'unreachable']);
-  const at = async () => {
-    const { width, data } = await canvasPixels();
-    const out = [];
-    for (const r of regions) {
-      const [x, y] = await page.evaluate((c) => window.autoscanReport.project(c), r.centroid);
+  const at = () => page.evaluate((regions) => {
+    const { width, data } = window.readCanvas();
+    return regions.map((r) => {
+      const [x, y] = window.autoscanReport.project(r.centroid);
       const i = 4 * (y * width + x);
-      out.push({ reason: r.reason, rgb: [data[i], data[i + 1], data[i + 2]] });
-    }
-    return out;
-  };
+      return { reason: r.reason, rgb: [data[i], data[i + 1], data[i + 2]] };
+    });
+  }, regions);
   const near = (a, b, tol) => a.every((v, k) => Math.abs(v - b[k]) <= tol);
   for (const { reason, rgb } of await at()) {
     assert.ok(near(rgb, REASON_RGB[reason], 6), `${reason}: pixel ${rgb} at its centroid, marker ${REASON_RGB[reason]}`);
@@ -136,33 +139,35 @@ test('the model is coloured by confidence: low (red, orange) below, confident (b
   assert.equal(await page.inputValue('#color-by'), 'f');
   await setChecked('show-regions', false);
   await setChecked('show-views', false);
-  const { width, height, data } = await canvasPixels();
+  const { n, std, low, warmLow, high, coolHigh } = await page.evaluate(() => {
+    const { width, height, data } = window.readCanvas();
+    // Pixels of the model, and those of the lower and upper thirds of its screen extent.
+    let n = 0, yMin = height, yMax = -1;
+    const sum = [0, 0, 0], sq = [0, 0, 0];
+    for (let y = 0; y < height; ++y) {
+      for (let x = 0; x < width; ++x) {
+        const i = 4 * (y * width + x);
+        if (window.isBackground(data, i)) continue;
+        yMin = Math.min(yMin, y); yMax = Math.max(yMax, y);
+        ++n;
+        for (let k = 0; k < 3; ++k) { sum[k] += data[i + k]; sq[k] += data[i + k] ** 2; }
+      }
+    }
+    const third = (yMax - yMin) / 3;
+    let low = 0, warmLow = 0, high = 0, coolHigh = 0;
+    for (let y = 0; y < height; ++y) {
+      for (let x = 0; x < width; ++x) {
+        const i = 4 * (y * width + x);
+        if (window.isBackground(data, i)) continue;
+        const [r, b] = [data[i], data[i + 2]];
+        if (y > yMax - third) { ++low; if (r > b + 40) ++warmLow; }
+        if (y < yMin + third) { ++high; if (b > r + 20) ++coolHigh; }
+      }
+    }
+    return { n, std: sq.map((s, k) => Math.sqrt(s / n - (sum[k] / n) ** 2)), low, warmLow, high, coolHigh };
+  });
   await setChecked('show-regions', true);
   await setChecked('show-views', true);
-  // Pixels of the model: the upper and lower thirds of its screen extent.
-  let n = 0, warmLow = 0, coolHigh = 0, rows = [];
-  const sum = [0, 0, 0], sq = [0, 0, 0];
-  for (let y = 0; y < height; ++y) {
-    for (let x = 0; x < width; ++x) {
-      const i = 4 * (y * width + x);
-      if (isBackground(data, i)) continue;
-      rows.push(y);
-      ++n;
-      for (let k = 0; k < 3; ++k) { sum[k] += data[i + k]; sq[k] += data[i + k] ** 2; }
-    }
-  }
-  const yMin = Math.min(...rows), yMax = Math.max(...rows), third = (yMax - yMin) / 3;
-  let low = 0, high = 0;
-  for (let y = 0; y < height; ++y) {
-    for (let x = 0; x < width; ++x) {
-      const i = 4 * (y * width + x);
-      if (isBackground(data, i)) continue;
-      const [r, , b] = [data[i], data[i + 1], data[i + 2]];
-      if (y > yMax - third) { ++low; if (r > b + 40) ++warmLow; }
-      if (y < yMin + third) { ++high; if (b > r + 20) ++coolHigh; }
-    }
-  }
-  const std = sq.map((s, k) => Math.sqrt(s / n - (sum[k] / n) ** 2));
   assert.ok(std[0] > 25 && std[2] > 25, `colour spread over the model's ${n} pixels: std ${std.map((v) => v.toFixed(1))}`);
   assert.ok(warmLow / low > 0.5, `${warmLow} of ${low} pixels of the lower third red or orange`);
   assert.ok(coolHigh / high > 0.5, `${coolHigh} of ${high} pixels of the upper third blue`);
@@ -233,14 +238,16 @@ test('the colour switch changes the mesh colours', async () => {
 
 // Shares of canvas pixels that are clearly red (r ≫ g, b) and clearly blue (b ≫ r, g).
 async function redBlueShares() {
-  const { data } = await canvasPixels();
-  let red = 0, blue = 0;
-  for (let i = 0; i < data.length; i += 4) {
-    const [r, g, b] = [data[i], data[i + 1], data[i + 2]];
-    if (r > 80 && r > 2.5 * g && r > 2.5 * b) ++red;
-    if (b > 80 && b > 2.5 * r && b > 1.8 * g) ++blue;
-  }
-  return { red: red / (data.length / 4), blue: blue / (data.length / 4) };
+  return page.evaluate(() => {
+    const { data } = window.readCanvas();
+    let red = 0, blue = 0;
+    for (let i = 0; i < data.length; i += 4) {
+      const [r, g, b] = [data[i], data[i + 1], data[i + 2]];
+      if (r > 80 && r > 2.5 * g && r > 2.5 * b) ++red;
+      if (b > 80 && b > 2.5 * r && b > 1.8 * g) ++blue;
+    }
+    return { red: red / (data.length / 4), blue: blue / (data.length / 4) };
+  });
 }
 
 test('the coloured model renders in its scanned colours and switches back to confidence', async () => {
