@@ -217,6 +217,27 @@ TEST(Histogram, SharesAndWriters) {
   fs::remove_all(dir);
 }
 
+// The report's histogram: bin 0 below range·1e-3, then three decades on log-spaced edges.
+TEST(Histogram, LogBinsSpreadAGoodScanOverDecades) {
+  // max 0.01 of a diagonal 2 → top 0.02, low 2e-5; 4 bins: edges 0, 2e-5, 2e-4, 2e-3, 2e-2.
+  const std::vector<double> d = {0.0, 1e-5, 3e-5, 1e-4, 5e-4, 1.9e-3, 2.1e-3, 0.019, 0.02, 1.0};
+  const ErrorHistogram h = make_log_histogram(d, 4, 0.01, 2.0);
+  ASSERT_EQ(h.edges.size(), 5u);
+  EXPECT_DOUBLE_EQ(h.edges[0], 0.0);
+  EXPECT_NEAR(h.edges[1], 2e-5, 1e-18);
+  EXPECT_NEAR(h.edges[2], 2e-4, 1e-17);
+  EXPECT_NEAR(h.edges[3], 2e-3, 1e-16);
+  EXPECT_DOUBLE_EQ(h.edges[4], 0.02);
+  EXPECT_EQ(h.counts, (std::vector<std::size_t>{2, 2, 2, 2}));
+  EXPECT_EQ(h.overflow_count, 2u);
+  EXPECT_DOUBLE_EQ(h.share[0], 0.2);
+  EXPECT_DOUBLE_EQ(h.overflow, 0.2);
+  // The linear bins put the first eight of them in one bin.
+  EXPECT_EQ(make_histogram(d, 4, 0.01, 2.0).counts[0], 7u);
+  EXPECT_THROW(make_log_histogram(d, 1, 0.01, 2.0), InputError);
+  EXPECT_THROW(make_log_histogram(d, 4, 0.0, 2.0), InputError);
+}
+
 TEST(ProceduralObject, SdfIsABoundOnTheDistanceToItsMesh) {
   const ProceduralObject obj;
   const TriangleMesh m = obj.mesh(120);

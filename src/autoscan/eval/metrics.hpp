@@ -64,6 +64,8 @@ struct ErrorHistogram {
   double overflow = 0;  ///< share of samples at or beyond edges.back()
   std::size_t overflow_count = 0;
   double diagonal = 1;  ///< the truth diagonal the edges were scaled by
+  /// edges, share, counts, overflow, overflow_count, diagonal; and for the report's plot "labels"
+  /// (each bin's upper edge / diagonal, 3 significant digits) and "values" (= share).
   nlohmann::json to_json() const;
 };
 /// @param[in] distances     #D absolute distances
@@ -72,6 +74,17 @@ struct ErrorHistogram {
 /// @param[in] diagonal      the truth's diagonal
 /// @return edges (B + 1), share and counts (B each), and the overflow beyond edges[B]
 ErrorHistogram make_histogram(const std::vector<double>& distances, int bins, double max_distance, double diagonal);
+/// The same distances on logarithmic bins, for the report: the linear bins of Figure 9 put nearly
+/// every sample of a good scan in the first bin. edges[0] = 0, edges[1..B] log-spaced from
+/// max_distance·1e-3 to max_distance (× diagonal): the first bin holds everything below a thousandth
+/// of the range, the others cover three decades.
+///
+/// @param[in] distances     #D absolute distances
+/// @param[in] bins          B >= 2
+/// @param[in] max_distance  upper edge of the last bin, as a fraction of `diagonal`
+/// @param[in] diagonal      the truth's diagonal
+/// @return edges (B + 1), share and counts (B each), and the overflow beyond edges[B]
+ErrorHistogram make_log_histogram(const std::vector<double>& distances, int bins, double max_distance, double diagonal);
 
 struct EvalResult {
   DistanceStats accuracy;      ///< reconstruction → truth
@@ -80,7 +93,8 @@ struct EvalResult {
   double tau = 0;      ///< as given (fraction of the diagonal)
   double tau_abs = 0;  ///< tau × truth diagonal
   double truth_diagonal = 0;
-  ErrorHistogram histogram;  ///< of the accuracy distances
+  ErrorHistogram histogram;      ///< of the accuracy distances
+  ErrorHistogram log_histogram;  ///< of the accuracy distances, logarithmic bins (make_log_histogram)
   std::size_t recon_faces = 0, truth_faces = 0;
   double seconds = 0;  ///< wall time
   nlohmann::json to_json() const;

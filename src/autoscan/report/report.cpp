@@ -1,7 +1,9 @@
 #include "autoscan/report/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
@@ -83,19 +85,38 @@ std::string script_safe(std::string s) {
 }
 
 const char* kStyle = R"CSS(
-body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0;background:#fafafa;color:#222}
-header{padding:10px 16px;background:#1f2937;color:#fff}header h1{font-size:18px;margin:0}
+*{box-sizing:border-box}
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0;background:#fafafa;color:#222;overflow-x:hidden}
+header{padding:10px 16px;background:#1f2937;color:#fff}header h1{font-size:18px;margin:0;overflow-wrap:anywhere}
 header p{margin:4px 0 0;font-size:13px;color:#cbd5e1}
-.certificate{padding:4px 16px}.verdict{font-weight:600}.verdict.done{color:#1a7f37}.verdict.not-done{color:#b40426}
+h3{margin:10px 0 6px}
+.certificate{margin:12px;padding:12px 16px;background:#fff;border:1px solid #ddd;border-left:8px solid #b40426;border-radius:6px}
+.certificate.done{border-left-color:#1a7f37}.certificate.partial{border-left-color:#d97706}
+.certificate h2{margin:0 0 4px;font-size:15px;font-weight:600;color:#555}
+.verdict{font-size:28px;font-weight:700;margin:0}.done .verdict{color:#1a7f37}.not-done .verdict{color:#b40426}
+.partial .verdict{color:#b45309}.why{margin:4px 0 10px;font-size:14px}
+.figures{display:flex;flex-wrap:wrap;gap:8px;margin:0 0 10px}
+.figure{background:#f6f7f9;border:1px solid #e5e7eb;border-radius:6px;padding:6px 10px;min-width:130px;max-width:220px}
+.figure b{display:block;font-size:18px}.figure span{font-size:12px;color:#555}
 .scroll{overflow-x:auto;max-width:100%}
-main{display:grid;grid-template-columns:minmax(0,1fr) 380px;gap:12px;padding:12px}
-#viewport{height:68vh;min-height:420px;background:#f4f4f4;border:1px solid #ddd;border-radius:6px;overflow:hidden}
-.controls{display:flex;flex-wrap:wrap;gap:12px;align-items:center;margin:8px 0;font-size:14px}
-#iteration{width:260px}#slice{max-width:100%;border:1px solid #ddd;border-radius:4px;image-rendering:pixelated}
-.plot{background:#fff;border:1px solid #ddd;border-radius:6px;margin:0 8px 8px 0}
+main{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,360px);gap:12px;padding:0 12px}
+#viewport{height:62vh;min-height:380px;background:#f4f4f4;border:1px solid #ddd;border-radius:6px;overflow:hidden}
+.controls{display:flex;flex-wrap:wrap;gap:6px 14px;align-items:center;margin:6px 0;font-size:14px}
+#iteration{width:220px;max-width:50vw}
+#slice{display:block;width:100%;max-width:360px;border:1px solid #ddd;border-radius:4px;image-rendering:pixelated}
+.caption{font-size:12px;color:#555;margin:4px 0}
+.plot{background:#fff;border:1px solid #ddd;border-radius:6px;margin:0 8px 8px 0;max-width:100%;height:auto}
 .plot-title{font-size:13px;font-weight:600}.tick{font-size:10px;fill:#555}
-#plots{display:flex;flex-wrap:wrap}table{border-collapse:collapse;font-size:13px}td,th{padding:2px 8px;border-bottom:1px solid #eee;text-align:right}
-.legend span{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:middle}
+#plots{display:flex;flex-wrap:wrap}table{border-collapse:collapse;font-size:13px}
+td,th{padding:2px 8px;border-bottom:1px solid #eee;text-align:right;white-space:nowrap}
+.legend{display:flex;flex-wrap:wrap;gap:4px 14px;align-items:center;font-size:13px;margin:6px 0}
+.sw{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:middle;border-radius:2px}
+.ring{display:inline-block;width:12px;height:12px;margin-right:4px;vertical-align:middle;border-radius:50%;border:3px solid}
+#colorbar{display:inline-block;position:relative;width:200px;height:12px;vertical-align:middle;border:1px solid #999}
+#colorbar-threshold{position:absolute;top:-4px;width:2px;height:20px;background:#000}
+.history{padding:0 12px 12px}
+@media (max-width:960px){main{grid-template-columns:minmax(0,1fr)}table{font-size:12px}td,th{padding:2px 3px}
+th{white-space:normal}}
 )CSS";
 
 // Display decimation of large meshes by vertex clustering: vertices are merged per cell of a grid
@@ -178,6 +199,19 @@ bool attach_colors(const fs::path& file, TriangleMesh& mesh) {
   return true;
 }
 
+// Columns of values in [0, 1] as bytes (round(255 · value), clamped), interleaved per vertex.
+std::vector<std::uint8_t> unit_bytes(std::initializer_list<const std::vector<double>*> columns) {
+  const std::size_t n = (*columns.begin())->size();
+  std::vector<std::uint8_t> out;
+  out.reserve(n * columns.size());
+  for (std::size_t v = 0; v < n; ++v)
+    for (const auto* col : columns) {
+      const double x = std::isfinite((*col)[v]) ? std::clamp((*col)[v], 0.0, 1.0) : 0.0;
+      out.push_back(static_cast<std::uint8_t>(std::lround(255.0 * x)));
+    }
+  return out;
+}
+
 // The iteration's Poisson mesh for the viewer: positions, indices, f/f_g/f_s and the colours,
 // decimated by vertex clustering beyond the display budget. Sets `any_color` for a coloured mesh.
 json mesh_entry(const SessionLayout& layout, int index, const ReportOptions& opt, Buffers& bufs, bool& any_color) {
@@ -194,21 +228,15 @@ json mesh_entry(const SessionLayout& layout, int index, const ReportOptions& opt
     for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(f[c]));
   json m{{"vertices", mesh.vertices.size()}, {"positions", bufs.add(pos)}, {"indices", bufs.add(idx)}};
   json scalars = json::object();
+  // f, f_g, f_s (in [0, 1]) and the colours as bytes (value · 255): a quarter of the floats' size, and
+  // finer than the display's colour steps.
   for (const char* s : {"f", "f_g", "f_s"}) {
-    if (const auto* col = mesh.vertex_scalars.find(s)) {
-      std::vector<float> v(col->begin(), col->end());
-      scalars[s] = bufs.add(v);
-    }
+    if (const auto* col = mesh.vertex_scalars.find(s)) scalars[s] = bufs.add(unit_bytes({col}));
   }
   m["scalars"] = scalars;
   if (colored) {
-    const auto& r = mesh.vertex_scalars.get("color_r");
-    const auto& g = mesh.vertex_scalars.get("color_g");
-    const auto& b = mesh.vertex_scalars.get("color_b");
-    std::vector<float> rgb;
-    rgb.reserve(3 * r.size());
-    for (std::size_t v = 0; v < r.size(); ++v) rgb.insert(rgb.end(), {float(r[v]), float(g[v]), float(b[v])});
-    m["color"] = bufs.add(rgb);
+    m["color"] = bufs.add(unit_bytes({&mesh.vertex_scalars.get("color_r"), &mesh.vertex_scalars.get("color_g"),
+                                      &mesh.vertex_scalars.get("color_b")}));
     any_color = true;
   }
   return m;
@@ -220,7 +248,50 @@ struct Page {
   json manifest;
   Buffers bufs;
   ReportResult result;
+  std::unordered_map<long long, json> scan_pose;  ///< scan id → its (registered) pose, from session.json
 };
+
+// Scan id → the pose it was taken from (the registered one when the session has it), for the frusta
+// of the views already scanned.
+std::unordered_map<long long, json> scan_pose_map(const json& session) {
+  std::unordered_map<long long, json> out;
+  for (const auto& sc : session.value("scans", json::array())) {
+    if (!sc.is_object() || !sc.contains("id") || !sc["id"].is_number_integer()) continue;
+    for (const char* key : {"registered_pose", "pose"}) {
+      const json pose = sc.value(key, json(nullptr));
+      if (pose.is_object() && pose.contains("position") && pose.contains("direction")) {
+        out[sc["id"].get<long long>()] = pose;
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+// The poses of the scans iteration record `rec` added (its "scans": ids), in order.
+json scan_poses(const std::unordered_map<long long, json>& poses, const json& rec) {
+  json out = json::array();
+  for (const auto& id : rec.value("scans", json::array())) {
+    if (!id.is_number_integer()) continue;
+    const auto it = poses.find(id.get<long long>());
+    if (it != poses.end()) out.push_back(it->second);
+  }
+  return out;
+}
+
+// The per-iteration series of the history plots (manifest.plots).
+constexpr const char* kPlotSeries[] = {"mean_f",
+                                       "mean_f_g",
+                                       "mean_f_s",
+                                       "accuracy_mean",
+                                       "completeness_mean",
+                                       "coverage",
+                                       "coverage_scannable",
+                                       "fscore",
+                                       "share_confident",
+                                       "share_improvable",
+                                       "share_unreachable",
+                                       "share_too_noisy"};
 
 // Appends the plot series and the seconds per stage of iteration record `rec` (the k-th).
 void add_plot_points(const json& rec, std::size_t k, json& plots, json& seconds) {
@@ -231,6 +302,13 @@ void add_plot_points(const json& rec, std::size_t k, json& plots, json& seconds)
   plots["accuracy_mean"].push_back(number_or_null(truth, "accuracy_mean"));
   plots["completeness_mean"].push_back(number_or_null(truth, "completeness_mean"));
   plots["coverage"].push_back(number_or_null(truth, "coverage"));
+  plots["coverage_scannable"].push_back(number_or_null(truth, "coverage_scannable"));
+  plots["fscore"].push_back(number_or_null(truth, "fscore"));
+  const json cert = rec.value("certificate", json::object());
+  plots["share_confident"].push_back(number_or_null(cert, "share_confident"));
+  plots["share_improvable"].push_back(number_or_null(cert, "share_improvable"));
+  plots["share_unreachable"].push_back(number_or_null(cert, "share_unreachable"));
+  plots["share_too_noisy"].push_back(number_or_null(cert, "share_too_noisy"));
   if (rec.contains("seconds") && rec["seconds"].is_object()) {
     for (const auto& [stage, v] : rec["seconds"].items()) {
       if (!seconds.contains(stage)) seconds[stage] = json::array();
@@ -245,6 +323,15 @@ json iteration_entry(const SessionLayout& layout, const json& rec, int index, co
                      Page& page, bool& any_color) {
   json it;
   it["index"] = index;
+  it["scans"] = scan_poses(page.scan_pose, rec);
+  if (rec.contains("truth") && rec["truth"].is_object()) {
+    json t = json::object();
+    for (const char* k : {"coverage", "coverage_scannable", "fscore", "accuracy_mean"})
+      if (rec["truth"].contains(k)) t[k] = number_or_null(rec["truth"], k);
+    it["truth"] = t;
+  }
+  it["stop_reason"] =
+      rec.contains("stop_reason") && rec["stop_reason"].is_string() ? rec["stop_reason"] : json(nullptr);
   it["points"] = number_or_null(rec, "points");
   it["mean_f"] = number_or_null(rec, "mean_f");
   std::error_code ec;
@@ -273,17 +360,23 @@ Page build_page(const SessionLayout& layout, const json& session, const ReportOp
   json iterations = json::array();
   bool any_color = false;  // a coloured model: the viewer opens on it (docs/colour.md)
   json plots;
-  for (const char* k : {"mean_f", "mean_f_g", "mean_f_s", "accuracy_mean", "completeness_mean", "coverage"})
-    plots[k] = json::array();
+  for (const char* k : kPlotSeries) plots[k] = json::array();
   json seconds = json::object();
   Rng rng(opt.seed);
+  page.scan_pose = scan_pose_map(session);
   const auto& its = session["iterations"];
   for (std::size_t k = 0; k < its.size(); ++k) {
     const json& rec = its[k];
     const int index = rec.value("index", static_cast<int>(k));
     add_plot_points(rec, k, plots, seconds);
     const json truth = rec.value("truth", json::object());
-    if (truth.contains("histogram")) manifest["histogram"] = truth["histogram"];
+    // The logarithmic bins when the session has them (eval::make_log_histogram), else the linear ones.
+    if (truth.contains("log_histogram")) {
+      manifest["histogram"] = truth["log_histogram"];
+      manifest["histogram"]["log"] = true;
+    } else if (truth.contains("histogram")) {
+      manifest["histogram"] = truth["histogram"];
+    }
     iterations.push_back(iteration_entry(layout, rec, index, opt, rng, page, any_color));
   }
   for (auto& [stage, v] : seconds.items())
@@ -296,74 +389,181 @@ Page build_page(const SessionLayout& layout, const json& session, const ReportOp
   return page;
 }
 
-// The summary table of the iterations.
+// A number of `o`'s `key` with `prec` decimals, or "–".
+std::string num(const json& o, const char* key, int prec) {
+  return o.is_object() && o.contains(key) && o[key].is_number() ? fmt::format("{:.{}f}", o[key].get<double>(), prec)
+                                                                : std::string("–");
+}
+
+// A share of `o`'s `key` in per cent with two decimals, or "–".
+std::string pct(const json& o, const char* key) {
+  return o.is_object() && o.contains(key) && o[key].is_number() ? fmt::format("{:.2f} %", 100.0 * o[key].get<double>())
+                                                                : std::string("–");
+}
+
+// The table of the iterations: the certificate's shares, the truth's figures, the stop.
 std::string summary_table(const json& its) {
   std::ostringstream table;
-  table << "<table><tr><th>iteration</th><th>points</th><th>views</th><th>mean f</th><th>f_g</th><th>f_s</th>"
-           "<th>coverage</th></tr>";
+  table << "<table id=\"iterations-table\"><tr><th>iteration</th><th>points</th><th>views</th><th>mean f</th>"
+           "<th>confident</th><th>improvable</th><th>unreachable</th><th>too noisy</th><th>regions</th>"
+           "<th>coverage</th><th>F-score</th><th>accuracy</th><th>stop</th></tr>";
   for (const auto& rec : its) {
-    auto num = [&](const json& o, const char* key, int prec) {
-      return o.is_object() && o.contains(key) && o[key].is_number() ? fmt::format("{:.{}f}", o[key].get<double>(), prec)
-                                                                    : std::string("–");
-    };
+    const json truth = rec.value("truth", json::object());
+    const json cert = rec.value("certificate", json::object());
+    const json cov = truth.is_object() && truth.contains("coverage_scannable") ? truth : json::object();
     table << "<tr><td>" << rec.value("index", 0) << "</td><td>" << num(rec, "points", 0) << "</td><td>"
-          << num(rec, "views", 0) << "</td><td>" << num(rec, "mean_f", 3) << "</td><td>" << num(rec, "mean_f_g", 3)
-          << "</td><td>" << num(rec, "mean_f_s", 3) << "</td><td>"
-          << num(rec.value("truth", json::object()), "coverage", 3) << "</td></tr>";
+          << num(rec, "views", 0) << "</td><td>" << num(rec, "mean_f", 3) << "</td><td>" << pct(cert, "share_confident")
+          << "</td><td>" << pct(cert, "share_improvable") << "</td><td>" << pct(cert, "share_unreachable")
+          << "</td><td>" << pct(cert, "share_too_noisy") << "</td><td>"
+          << (cert.is_object() && cert.contains("regions") ? std::to_string(cert["regions"].size()) : "–")
+          << "</td><td>" << (cov.empty() ? pct(truth, "coverage") : pct(truth, "coverage_scannable")) << "</td><td>"
+          << num(truth, "fscore", 4) << "</td><td>" << num(truth, "accuracy_mean", 6) << "</td><td>"
+          << (rec.contains("stop_reason") && rec["stop_reason"].is_string()
+                  ? escape_html(rec["stop_reason"].get<std::string>())
+                  : std::string())
+          << "</td></tr>";
   }
   table << "</table>";
   return table.str();
 }
 
+// What a stop reason (docs/session-format.md) means, in a sentence.
+std::string stop_meaning(const std::string& reason) {
+  static const std::pair<const char*, const char*> kMeaning[] = {
+      {"complete", "what views can still improve is below the remaining share of the surface"},
+      {"no_improvement", "views stopped improving the low-confidence regions they looked at"},
+      {"quality_fell", "the mean confidence fell below the best iteration's; the result is the best iteration"},
+      {"quality_fell_truth", "the F-score against the truth fell; the result is the best iteration"},
+      {"converged", "the mean confidence stopped changing (the paper's rule)"},
+      {"confidence_fell", "the mean confidence fell (the paper's rule)"},
+      {"max_iterations", "the iteration budget ran out"},
+      {"max_views", "the view budget ran out"},
+      {"no_views", "the planner found no view worth scanning"}};
+  for (const auto& [key, meaning] : kMeaning)
+    if (reason == key) return meaning;
+  return reason.empty() ? "the session is still running" : "";
+}
+
+// The colour of a region's reason (the same as the viewer's markers, report/src/viewer.js).
+const char* reason_color(const std::string& reason) {
+  if (reason == "not_scanned") return "#7c3aed";
+  if (reason == "improving") return "#db2777";
+  if (reason == "unreachable") return "#111827";
+  if (reason == "too_noisy") return "#a16207";
+  return "#888888";
+}
+
 // The rows of the certificate's regions.
-void certificate_regions(const json& cert, std::ostringstream& cert_html) {
-  cert_html << "<div class=\"scroll\"><table><tr><th>region</th><th>share</th><th>centroid</th>"
-               "<th>mean f</th><th>reason</th></tr>";
-  for (const auto& r : cert.value("regions", json::array())) {
+void certificate_regions(const json& cert, std::ostringstream& out) {
+  const json regions = cert.value("regions", json::array());
+  out << "<h3>" << regions.size() << " region" << (regions.size() == 1 ? "" : "s")
+      << " of low confidence left (ringed in the 3D view)</h3>";
+  if (regions.empty()) return;
+  out << "<div class=\"scroll\"><table id=\"regions-table\"><tr><th>region</th><th>reason</th><th>share</th>"
+         "<th>mean f</th><th>has data</th><th>views aimed</th><th>expected accuracy</th><th>radius</th>"
+         "<th>centroid</th></tr>";
+  for (const auto& r : regions) {
     const auto c = r.value("centroid", json::array());
-    cert_html << "<tr><td>" << r.value("id", 0) << "</td><td>" << fmt::format("{:.2f} %", 100.0 * r.value("share", 0.0))
-              << "</td><td>"
-              << (c.size() == 3 ? fmt::format("{:.3f}, {:.3f}, {:.3f}", c[0].get<double>(), c[1].get<double>(),
-                                              c[2].get<double>())
-                                : std::string("–"))
-              << "</td><td>" << fmt::format("{:.3f}", r.value("mean_f", 0.0)) << "</td><td>"
-              << escape_html(r.value("reason", std::string())) << "</td></tr>";
+    const std::string reason = r.value("reason", std::string());
+    out << "<tr><td>" << r.value("id", 0)
+        << "</td><td style=\"text-align:left\"><span class=\"ring\" style=\"border-color:" << reason_color(reason)
+        << "\"></span>" << escape_html(reason) << "</td><td>" << pct(r, "share") << "</td><td>" << num(r, "mean_f", 3)
+        << "</td><td>" << (r.value("has_data", false) ? "yes" : "no") << "</td><td>" << num(r, "views_aimed", 0)
+        << "</td><td>" << fmt::format("{:.3g}", r.value("expected_accuracy", 0.0)) << "</td><td>" << num(r, "radius", 3)
+        << "</td><td>"
+        << (c.size() == 3 && c[0].is_number() && c[1].is_number() && c[2].is_number()
+                ? fmt::format("{:.3f}, {:.3f}, {:.3f}", c[0].get<double>(), c[1].get<double>(), c[2].get<double>())
+                : std::string("–"))
+        << "</td></tr>";
   }
-  cert_html << "</table></div>";
+  out << "</table></div>";
+}
+
+// One figure tile of the certificate: a value and what it is.
+std::string figure(const std::string& value, const std::string& what) {
+  return "<div class=\"figure\"><b>" + value + "</b><span>" + what + "</span></div>";
+}
+
+// The key figures of the certificate (and of the truth, in a simulation).
+void certificate_figures(const json& session, const json& cert, const json& truth, std::ostringstream& out) {
+  out << "<div class=\"figures\">"
+      << figure(pct(cert, "share_confident"),
+                fmt::format("of the surface confident (f &ge; {:.3f})", cert.value("threshold", 0.0)))
+      << figure(pct(cert, "share_improvable"), "views can still improve (not scanned, improving)")
+      << figure(pct(cert, "share_unreachable"), "unreachable: no view sees it")
+      << figure(pct(cert, "share_too_noisy"), "too noisy: more data does not help")
+      << figure(pct(cert, "share_scattered"), "scattered specks (not tracked)");
+  if (truth.is_object() && truth.contains("coverage_scannable"))
+    out << figure(pct(truth, "coverage_scannable"), "of the scannable surface covered (truth)");
+  else if (truth.is_object() && truth.contains("coverage"))
+    out << figure(pct(truth, "coverage"), "of the true surface covered (truth)");
+  if (truth.is_object() && truth.contains("fscore")) out << figure(num(truth, "fscore", 4), "F-score (truth)");
+  const double sigma = cert.value("expected_accuracy", 0.0);
+  out << figure(sigma > 0 ? fmt::format("{:.3g}", sigma) : "0",
+                sigma > 0 ? "expected accuracy: the scanner's depth σ" : "expected accuracy (noise-free scanner)");
+  if (session.contains("best_iteration") && session["best_iteration"].is_number_integer())
+    out << figure(fmt::format("iteration {}", session["best_iteration"].get<int>()), "the result (model.ply)");
+  out << "</div>";
 }
 
 // The quality certificate of the last iteration (docs/stop-rule.md): is the scan done, and what is
 // missing where, and why.
-std::string certificate_section(const json& session, const json& its) {
-  std::ostringstream cert_html;
+std::string certificate_section(const json& session, const json& its, const std::string& stop) {
+  std::ostringstream out;
   const json& last = its.back();
   const json cert = last.contains("certificate") ? last["certificate"] : json(nullptr);
-  cert_html << "<section class=\"certificate\"><h3>Quality certificate</h3>";
-  if (cert.is_object()) {
-    auto pct = [&](const char* key) { return fmt::format("{:.2f} %", 100.0 * cert.value(key, 0.0)); };
-    const bool done = cert.value("done", false);
-    const double missing = cert.value("share_unreachable", 0.0) + cert.value("share_too_noisy", 0.0);
-    const std::string verdict = !done           ? "NOT DONE"
-                                : missing > 0.0 ? fmt::format("DONE with {:.2f} % missing", 100.0 * missing)
-                                                : "DONE";
-    cert_html << "<p class=\"verdict " << (done ? "done" : "not-done") << "\">" << verdict << ": "
-              << pct("share_confident") << " of the surface has confidence &ge; "
-              << fmt::format("{:.3f}", cert.value("threshold", 0.0)) << "; views can still improve "
-              << pct("share_improvable") << ", unreachable " << pct("share_unreachable") << ", too noisy "
-              << pct("share_too_noisy") << ", scattered " << pct("share_scattered") << ". Scanner's expected accuracy "
-              << fmt::format("{:.3g}", cert.value("expected_accuracy", 0.0)) << ".";
-    if (session.contains("best_iteration") && session["best_iteration"].is_number_integer())
-      cert_html << " Result: iteration " << session["best_iteration"].get<int>() << " (model.ply).";
-    cert_html << "</p>";
-    certificate_regions(cert, cert_html);
-  } else {
-    cert_html << "<p>No certificate (a session written before it).</p>";
+  if (!cert.is_object()) {
+    return "<section class=\"certificate not-done\" id=\"certificate\"><h2>Quality certificate</h2>"
+           "<p class=\"why\">No certificate (a session written before it). Stop: " +
+           escape_html(stop) + ".</p></section>\n";
   }
-  cert_html << "</section>\n";
-  return cert_html.str();
+  const bool done = cert.value("done", false);
+  const double missing = cert.value("share_unreachable", 0.0) + cert.value("share_too_noisy", 0.0);
+  const std::string verdict = !done           ? "NOT DONE"
+                              : missing > 0.0 ? fmt::format("DONE with {:.2f} % missing", 100.0 * missing)
+                                              : "DONE";
+  const char* cls = !done ? "not-done" : missing > 0.0 ? "partial" : "done";
+  const std::string meaning = stop_meaning(stop == "still running" ? std::string() : stop);
+  out << "<section class=\"certificate " << cls << "\" id=\"certificate\"><h2>Quality certificate · iteration "
+      << last.value("index", 0) << "</h2><p class=\"verdict\" id=\"verdict\">" << verdict
+      << "</p><p class=\"why\">Stop: <b>" << escape_html(stop) << "</b>" << (meaning.empty() ? "" : " — ")
+      << escape_html(meaning) << ". " << pct(cert, "share_confident") << " of the surface has confidence &ge; "
+      << fmt::format("{:.3f}", cert.value("threshold", 0.0)) << "; views can still improve "
+      << pct(cert, "share_improvable") << ", unreachable " << pct(cert, "share_unreachable") << ", too noisy "
+      << pct(cert, "share_too_noisy") << ".</p>";
+  certificate_figures(session, cert, last.value("truth", json::object()), out);
+  certificate_regions(cert, out);
+  out << "</section>\n";
+  return out.str();
 }
 
-// The whole page: header, certificate, viewer, table, plots, the manifest, the buffers, the bundle.
+// The viewer's controls and legends (filled by report/src/viewer.js).
+const char* kViewerControls =
+    R"HTML(<div class="controls"><label>iteration <input type="range" id="iteration" min="0" step="1"></label>
+<span id="iteration-label"></span></div>
+<div class="controls"><label>colour by <select id="color-by"><option value="f">f (confidence)</option>
+<option value="f_g">f_g (completeness)</option><option value="f_s">f_s (smoothness)</option>
+<option value="color">colour (scanned)</option></select></label>
+<label><input type="checkbox" id="show-regions" checked> regions</label>
+<label><input type="checkbox" id="show-views" checked> views</label>
+<label><input type="checkbox" id="show-mesh" checked> Poisson mesh</label>
+<label><input type="checkbox" id="show-cloud"> points</label>
+<label>opacity <input type="range" id="mesh-opacity" min="0.1" max="1" step="0.05" value="1"></label></div>
+<div id="viewport"></div>
+<div class="legend" id="legend"><span><span id="colorbar-name">f</span> 0 <span id="colorbar"><span id="colorbar-threshold"></span></span> 1
+<span id="colorbar-note"></span></span></div>
+<div class="legend" id="legend-marks"><span><span class="ring" style="border-color:#7c3aed"></span>not scanned</span>
+<span><span class="ring" style="border-color:#db2777"></span>improving</span>
+<span><span class="ring" style="border-color:#111827"></span>unreachable</span>
+<span><span class="ring" style="border-color:#a16207"></span>too noisy</span>
+<span><span class="sw" style="background:#1a7f37"></span>next views</span>
+<span><span class="sw" style="background:#64748b"></span>scanned views</span>
+<span><span class="sw" style="background:#d97706"></span>path</span>
+<span><span class="sw" style="background:#d91a1a"></span>new points</span></div>
+)HTML";
+
+// The whole page: header, certificate, viewer, slice, history (table, plots), the manifest, the
+// buffers, the bundle.
 std::string page_html(const json& session, const Page& page, std::string_view bundle) {
   const auto& its = session["iterations"];
   const std::string stop = session.contains("stop_reason") && session["stop_reason"].is_string()
@@ -371,32 +571,19 @@ std::string page_html(const json& session, const Page& page, std::string_view bu
                                : "still running";
   const std::string title = page.manifest["title"].get<std::string>();
   std::ostringstream html;
-  html
-      << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>autoscan report — "
-      << escape_html(title) << "</title><style>" << kStyle << "</style></head><body>\n"
-      << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size() << " iterations · planner "
-      << escape_html(session.value("planner", std::string("poisson"))) << " · stop: " << escape_html(stop)
-      << "</p></header>\n"
-      << certificate_section(session, its) << "<main><section>\n"
-      << "<div class=\"controls\"><label>iteration <input type=\"range\" id=\"iteration\" min=\"0\" step=\"1\"></label>"
-      << "<span id=\"iteration-label\"></span></div>\n"
-      << "<div class=\"controls\"><label>colour mesh by <select id=\"color-by\"><option value=\"f\">f (confidence)"
-         "</option><option value=\"f_g\">f_g (completeness)</option><option value=\"f_s\">f_s (smoothness)</option>"
-         "<option value=\"color\">colour (scanned)</option>"
-         "</select></label><label><input type=\"checkbox\" id=\"show-cloud\" checked> points</label>"
-         "<label><input type=\"checkbox\" id=\"show-mesh\" checked> Poisson mesh</label>"
-         "<label><input type=\"checkbox\" id=\"show-views\" checked> next views</label>"
-         "<label>mesh opacity <input type=\"range\" id=\"mesh-opacity\" min=\"0.1\" max=\"1\" step=\"0.05\" "
-         "value=\"0.85\"></label>"
-         "<span class=\"legend\"><span style=\"background:#3b4cc0\"></span>low <span style=\"background:#b40426\">"
-         "</span>high · <span style=\"background:#d91a1a\"></span>new points · <span style=\"background:#1a7f37\">"
-         "</span>views · <span style=\"background:#d97706\"></span>path</span></div>\n"
-      << "<div id=\"viewport\"></div>\n</section><aside><h3>Viewing vector field (slice)</h3>"
-      << "<img id=\"slice\" alt=\"|g| on a horizontal slice\">\n<h3>Iterations</h3><div class=\"scroll\">"
-      << summary_table(its) << "</div>"
-      << "</aside></main>\n<section style=\"padding:0 12px 12px\"><h3>Plots</h3><div id=\"plots\"></div></section>\n"
-      << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(page.manifest.dump())
-      << "</script>\n";
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+       << "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>autoscan report — "
+       << escape_html(title) << "</title><style>" << kStyle << "</style></head><body>\n"
+       << "<header><h1>autoscan report — " << escape_html(title) << "</h1><p>" << its.size() << " iterations · planner "
+       << escape_html(session.value("planner", std::string("poisson"))) << " · stop: " << escape_html(stop)
+       << "</p></header>\n"
+       << certificate_section(session, its, stop) << "<main><section>\n"
+       << kViewerControls << "</section><aside><h3>Viewing vector field (slice)</h3>"
+       << "<img id=\"slice\" alt=\"|g| on a horizontal slice\"><p class=\"caption\" id=\"slice-caption\"></p>\n"
+       << "</aside></main>\n<section class=\"history\"><h3>History per iteration</h3><div class=\"scroll\">"
+       << summary_table(its) << "</div><div id=\"plots\"></div></section>\n"
+       << "<script id=\"autoscan-data\" type=\"application/json\">" << script_safe(page.manifest.dump())
+       << "</script>\n";
   for (const auto& [id, b64] : page.bufs.items)
     html << "<script id=\"" << id << "\" type=\"application/octet-stream\">" << b64 << "</script>\n";
   html << "<script>" << script_safe(std::string(bundle)) << "</script>\n</body></html>\n";

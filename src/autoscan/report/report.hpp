@@ -1,13 +1,20 @@
 #pragma once
 // The visual report of a scanning session (docs/session-format.md): a single self-contained HTML
-// page that works offline from file:// — a three.js viewer with an iteration slider (point cloud with
-// the iteration's new points highlighted, the Poisson mesh coloured by f, f_g or f_s, the next views
-// as frusta along their ordered path), the viewing-field slice, and plots of mean confidence, error
-// against the truth, coverage and time per stage.
+// page that works offline from file://. It opens on the quality certificate of the last iteration
+// (docs/stop-rule.md): the verdict (done / not done, the stop and what it means), the shares of the
+// surface (confident, improvable, unreachable, too noisy), the scannable coverage and F-score when the
+// truth is known, and the regions left with their reason. Below it a three.js viewer with an
+// iteration slider: the Poisson mesh coloured by confidence (split at the certificate's threshold)
+// or f_g, f_s or its scanned colours, each region ringed in the colour of its reason, the views
+// scanned into the iteration and the next views as camera frusta along their paths, the point cloud
+// (the iteration's new points highlighted); the viewing-field slice; the history per iteration
+// (table and plots: certificate shares, confidence, coverage and F-score, error, time per stage, the
+// final error histogram on logarithmic bins).
 //
 // Large clouds stay interactive: each iteration's cloud is decimated for display to at most
 // `max_points` points (seeded, deterministic) and shipped as base64 binary buffers, never as JSON
-// arrays of numbers.
+// arrays of numbers; meshes beyond `max_mesh_faces` are decimated by vertex clustering, and their
+// scalars and colours travel as bytes.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -15,10 +22,10 @@
 namespace autoscan::report {
 
 struct ReportOptions {
-  std::size_t max_points = 300000;    ///< display budget per iteration's point cloud
+  std::size_t max_points = 100000;      ///< display budget per iteration's point cloud (hidden by default)
   std::size_t max_mesh_faces = 200000;  ///< larger meshes are decimated for display (vertex clustering)
-  std::uint64_t seed = 1;             ///< for the display decimation
-  std::string title;                  ///< page title; default: the session directory's name
+  std::uint64_t seed = 1;               ///< for the display decimation
+  std::string title;                    ///< page title; default: the session directory's name
 };
 
 struct ReportResult {

@@ -330,6 +330,7 @@ void Collector::add_checkpoint(const BenchJob& j, const json& c) {
     a[k].push_back(num(k));
   json row = c;
   row.erase("histogram");
+  row.erase("log_histogram");
   row["model"] = j.model;
   row["planner"] = j.planner;
   row["noise"] = j.noise;

@@ -120,16 +120,8 @@ json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const Trian
     t["precision"] = r.precision;
     t["recall"] = r.recall;
     t["fscore"] = r.fscore;
-    json h = r.histogram.to_json();
-    // The report's plot reads labels/values.
-    json labels = json::array(), values = json::array();
-    for (std::size_t b = 0; b < r.histogram.share.size(); ++b) {
-      labels.push_back(fmt::format("{:.4f}", r.histogram.edges[b + 1]));
-      values.push_back(r.histogram.share[b]);
-    }
-    h["labels"] = labels;
-    h["values"] = values;
-    t["histogram"] = h;
+    t["histogram"] = r.histogram.to_json();
+    t["log_histogram"] = r.log_histogram.to_json();
   }
   if (reference) {
     const auto c = eval::coverage_split(raw, *reference, truth, options.tau, options.samples, options.seed);
