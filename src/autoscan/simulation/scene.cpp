@@ -1,0 +1,126 @@
+#include "autoscan/simulation/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "autoscan/core/error.hpp"
+#include "autoscan/shapes/scene.hpp"
+#include "autoscan/simulation/fixtures.hpp"
+
+namespace autoscan::simulation {
+namespace {
+
+struct PresetName {
+  bool full = false;
+  bool drone = false;
+};
+
+PresetName parse_preset(const std::string& name, const std::string& what) {
+  if (name == "church") return {false, false};
+  if (name == "church-drone") return {false, true};
+  if (name == "square") return {true, false};
+  if (name == "square-drone") return {true, true};
+  throw InputError(
+      fmt::format("{}: unknown scene '{}' (expected church, church-drone, square or square-drone)", what, name));
+}
+
+ProceduralScene scene_of(const PresetName& p) {
+  ProceduralScene::Params params;
+  params.full = p.full;
+  return ProceduralScene(params);
+}
+
+// Scene presets, as fractions of the scene's diagonal (the simulator normalises it to 1).
+constexpr double kNear = 0.06;              // d_n: 6 % of the diagonal
+constexpr double kFar = 0.12;               // d_f: 12 %
+constexpr double kMastLow = 0.9;            // m above the ground: the lowest scanner height
+constexpr double kMastHigh = 12.0;          // m: the mast's top
+constexpr double kDroneHigh = 53.0;         // m: the drone's ceiling (13 m above the spire)
+constexpr double kBlindHeight = 0.07;       // the blind ring's height above the ground (fraction)
+constexpr double kGroundTolerance = 0.002;  // ground points: within this of the plane (fraction)
+
+ScannerSpec scene_scanner(ScannerSpec s) {
+  // The default scanner's lengths scaled to the scene's range (its noise and pose error with it).
+  const double k = kFar / s.far;
+  s.near = kNear;
+  s.far = kFar;
+  s.baseline *= k;
+  s.noise.depth_sigma *= k;
+  s.noise.outlier_range *= k;
+  s.noise.pose_translation_sigma *= k;
+  s.fov_deg = 45.0;
+  s.projector_fov_deg = 55.0;
+  s.width = 320;
+  s.height = 240;
+  return s;
+}
+
+}  // namespace
+
+std::vector<std::string> scene_preset_names() { return {"church", "church-drone", "square", "square-drone"}; }
+
+SimulateOptions scene_options(const std::string& name, SimulateOptions o, const std::string& what) {
+  const PresetName p = parse_preset(name, what);
+  const double diagonal = scene_of(p).bounds().diagonal();
+  o.scene = name;
+  o.scanner = scene_scanner(o.scanner);
+  Rig rig;
+  rig.kind = p.drone ? Rig::Kind::drone : Rig::Kind::ground_mast;
+  rig.min_height = kMastLow / diagonal;
+  rig.max_height = (p.drone ? kDroneHigh : kMastHigh) / diagonal;
+  Fixture ground;
+  ground.kind = Fixture::Kind::plane;
+  ground.name = "ground";
+  ground.height = kSupportHeight;
+  ground.half_extent = 0.6;  // the normalised scene spans at most ±0.5, the blind ring d_o more
+  ground.tolerance = kGroundTolerance;
+  rig.fixtures = {ground};
+  o.rig = rig;
+  o.blind.views = p.full ? 36 : 24;
+  o.session.poisson.depth = 9;
+  o.session.confidence.iso.count = 40000;
+  o.session.consolidate.thinning.max_points = 300000;
+  o.session.nbv.max_views = 15;
+  o.session.max_views = 200;
+  o.session.max_iterations = 15;
+  o.scannable_options.surface_views = 3000;
+  o.scannable_options.sphere_views = 0;
+  o.eval.tau = 0.0025;
+  return o;
+}
+
+TriangleMesh scene_mesh(const std::string& name, const std::string& what) {
+  return scene_of(parse_preset(name, what)).mesh();
+}
+
+std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec, const Rig& rig, int views) {
+  AUTOSCAN_REQUIRE(views >= 1, "scene blind scan: need at least one view, got {}", views);
+  const double d_o = spec.optimal_distance();
+  const double ground = rig.ground_height();
+  const double lo = std::max(rig.min_height, 1e-6), hi = std::max(lo, rig.max_height);
+  const double z = ground + std::clamp(kBlindHeight, lo, hi);
+  const double x0 = bounds.min.x() - d_o, x1 = bounds.max.x() + d_o;
+  const double y0 = bounds.min.y() - d_o, y1 = bounds.max.y() + d_o;
+  const double wx = x1 - x0, wy = y1 - y0, perimeter = 2 * (wx + wy);
+  std::vector<Pose> poses;
+  for (int i = 0; i < views; ++i) {
+    // Half a step in: no view sits on a corner, where "in" is ambiguous.
+    double t = (i + 0.5) * perimeter / views;
+    Vec3 position, in;
+    if (t < wx) {
+      position = {x0 + t, y0, z}, in = Vec3::UnitY();
+    } else if ((t -= wx) < wy) {
+      position = {x1, y0 + t, z}, in = -Vec3::UnitX();
+    } else if ((t -= wy) < wx) {
+      position = {x1 - t, y1, z}, in = -Vec3::UnitY();
+    } else {
+      t -= wx;
+      position = {x0, y1 - t, z}, in = Vec3::UnitX();
+    }
+    const Pose pose = Pose::look_at(position, position + d_o * in, Vec3::UnitZ()).normalized();
+    if (rig.reachable(pose)) poses.push_back(pose);
+  }
+  return poses;
+}
+
+}  // namespace autoscan::simulation
