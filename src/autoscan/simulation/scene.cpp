@@ -36,8 +36,10 @@ constexpr double kFar = 0.12;               // d_f: 12 %
 constexpr double kMastLow = 0.9;            // m above the ground: the lowest scanner height
 constexpr double kMastHigh = 12.0;          // m: the mast's top
 constexpr double kDroneHigh = 53.0;         // m: the drone's ceiling (13 m above the spire)
+constexpr double kBlindTilt = 0.35;         // rad (20°) below the horizon: the blind views' pitch
 constexpr double kBlindHeight = 0.07;       // the blind ring's height above the ground (fraction)
 constexpr double kGroundTolerance = 0.002;  // ground points: within this of the plane (fraction)
+constexpr double kGroundClip = 0.004;       // the ground's surface: within this of the plane (fraction)
 
 ScannerSpec scene_scanner(ScannerSpec s) {
   // The default scanner's lengths scaled to the scene's range (its noise and pose error with it).
@@ -53,6 +55,32 @@ ScannerSpec scene_scanner(ScannerSpec s) {
   s.width = 320;
   s.height = 240;
   return s;
+}
+
+// The ground is known geometry (a declared support): its iso-points and mesh vertices are confident
+// (f = f_g = f_s = 1), so they draw no views and do not weigh on the certificate; the global
+// confidence is the mean over the rest.
+void settle_ground(session::Reconstruction& r, double ground_height) {
+  auto on_ground = [&](const Vec3& p) { return std::abs(p.z() - ground_height) <= kGroundClip; };
+  for (const char* name : {"f", "f_g", "f_s"}) {
+    if (auto* v = r.iso_points.scalars.find(name))
+      for (std::size_t k = 0; k < v->size(); ++k)
+        if (on_ground(r.iso_points.positions[k])) (*v)[k] = 1.0;
+    if (auto* v = r.mesh.vertex_scalars.find(name))
+      for (std::size_t k = 0; k < v->size(); ++k)
+        if (on_ground(r.mesh.vertices[k])) (*v)[k] = 1.0;
+  }
+  const auto* f = r.iso_points.scalars.find("f");
+  if (!f) return;
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < f->size(); ++k)
+    if (!on_ground(r.iso_points.positions[k])) {
+      sum += (*f)[k];
+      ++count;
+    }
+  if (count > 0) r.mean_f = sum / static_cast<double>(count);
+  r.diagnostics["ground_iso_points"] = f->size() - count;
 }
 
 }  // namespace
@@ -117,10 +145,37 @@ std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec,
       t -= wx;
       position = {x0, y1 - t, z}, in = Vec3::UnitX();
     }
-    const Pose pose = Pose::look_at(position, position + d_o * in, Vec3::UnitZ()).normalized();
+    // Tilted down by kBlindTilt: the centre ray meets the facades low, the lower rays the ground in
+    // front of them (whose points the session removes).
+    const Vec3 target = position + d_o * in - d_o * std::tan(kBlindTilt) * Vec3::UnitZ();
+    const Pose pose = Pose::look_at(position, target, Vec3::UnitZ()).normalized();
     if (rig.reachable(pose)) poses.push_back(pose);
   }
   return poses;
+}
+
+session::Reconstructor ground_closing_reconstructor(double ground_height, double margin, std::size_t ground_samples) {
+  AUTOSCAN_REQUIRE(ground_samples >= 4, "scene: need at least 4 ground samples, got {}", ground_samples);
+  return [=](const PointCloud& raw, const session::SessionOptions& options, const ProgressCallback& progress) {
+    const AABB b = raw.bounds();
+    const double x0 = b.min.x() - margin, x1 = b.max.x() + margin, y0 = b.min.y() - margin, y1 = b.max.y() + margin;
+    const double step = std::sqrt((x1 - x0) * (y1 - y0) / static_cast<double>(ground_samples));
+    const int nx = std::max(2, static_cast<int>(std::ceil((x1 - x0) / step)));
+    const int ny = std::max(2, static_cast<int>(std::ceil((y1 - y0) / step)));
+    PointCloud ground;
+    ground.positions.reserve(std::size_t(nx) * ny);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
+        ground.positions.push_back({x0 + (i + 0.5) * (x1 - x0) / nx, y0 + (j + 0.5) * (y1 - y0) / ny, ground_height});
+    const std::size_t n = ground.size();
+    ground.normals.assign(n, Vec3::UnitZ());
+    // The solver's surface under the ground (down to its box) is dropped; the ground itself stays,
+    // so the viewing field's candidates above it are not joined with those below (nbv's inside test).
+    auto r = session::reconstruct_with_fixed(raw, options, ground, ground_height - kGroundClip, progress);
+    r.diagnostics["ground_samples"] = n;
+    settle_ground(r, ground_height);
+    return r;
+  };
 }
 
 }  // namespace autoscan::simulation

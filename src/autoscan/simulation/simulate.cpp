@@ -231,6 +231,11 @@ class Loop {
   SimulateResult run(session::Session& s) {
     Stopwatch clock;
     s.set_progress(progress_);
+    // A scene stands on its ground: the Poisson input gets the ground under the model (scene.hpp).
+    if (!opts_.scene.empty())
+      if (const auto g = opts_.rig.support_height())
+        reconstructor_ = ground_closing_reconstructor(*g, opts_.scanner.far);
+    s.set_reconstructor(reconstructor_);
     recover_registration_errors(s);
     views_at_start_ = views_done(s);
     run_clock_.reset();
@@ -502,7 +507,7 @@ class Loop {
   void maybe_checkpoint(session::Session& s, bool last_view_of_iteration) {
     const int v = views_done(s);
     if (last_view_of_iteration || !is_pending_checkpoint(v)) return;
-    const auto model = session::reconstruct_model(s.model_points(), s.options());
+    const auto model = reconstructor_(s.model_points(), s.options(), {});
     record_checkpoint(
         v, truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference(), opts_.session.color_neighbours),
         model.mean_f);
@@ -647,6 +652,7 @@ class Loop {
   std::set<std::pair<int, int>> skipped_views_;  // (iteration or -1 for the blind scan, view index)
   std::optional<PointCloud> reference_;
   json registration_errors_ = json::array();
+  session::Reconstructor reconstructor_ = session::reconstruct_model;  // scene: with the ground (scene.hpp)
   // progress_line: the run's clock (this process), the virtual scanner's share, lines written.
   Stopwatch run_clock_;
   double scan_seconds_ = 0.0, last_scan_seconds_ = 0.0, last_line_at_ = 0.0;
