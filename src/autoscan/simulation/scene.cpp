@@ -60,8 +60,9 @@ ScannerSpec scene_scanner(ScannerSpec s) {
 // The ground is known geometry (a declared support): its iso-points and mesh vertices are confident
 // (f = f_g = f_s = 1), so they draw no views and do not weigh on the certificate; the global
 // confidence is the mean over the rest.
-void settle_ground(session::Reconstruction& r, double ground_height) {
-  auto on_ground = [&](const Vec3& p) { return std::abs(p.z() - ground_height) <= kGroundClip; };
+void settle_ground(session::Reconstruction& r, double ground_height, double clip) {
+  // At or below the ground (where its sheet bends down to the solver's box, too).
+  auto on_ground = [&](const Vec3& p) { return p.z() - ground_height <= clip; };
   for (const char* name : {"f", "f_g", "f_s"}) {
     if (auto* v = r.iso_points.scalars.find(name))
       for (std::size_t k = 0; k < v->size(); ++k)
@@ -171,9 +172,12 @@ session::Reconstructor ground_closing_reconstructor(double ground_height, double
     ground.normals.assign(n, Vec3::UnitZ());
     // The solver's surface under the ground (down to its box) is dropped; the ground itself stays,
     // so the viewing field's candidates above it are not joined with those below (nbv's inside test).
-    auto r = session::reconstruct_with_fixed(raw, options, ground, ground_height - kGroundClip, progress);
+    // The solver's ground lies within a cell or two of the plane: settle up to two finest cells.
+    const double cell = (b.max - b.min).maxCoeff() / std::ldexp(1.0, options.poisson.depth);
+    const double clip = std::max(kGroundClip, 2.0 * cell);
+    auto r = session::reconstruct_with_fixed(raw, options, ground, ground_height - clip, progress);
     r.diagnostics["ground_samples"] = n;
-    settle_ground(r, ground_height);
+    settle_ground(r, ground_height, clip);
     return r;
   };
 }
