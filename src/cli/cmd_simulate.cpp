@@ -14,6 +14,7 @@
 #include "autoscan/shapes/paint.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/fixtures.hpp"
+#include "autoscan/simulation/scene.hpp"
 #include "autoscan/simulation/simulate.hpp"
 #include "command.hpp"
 
@@ -23,7 +24,7 @@ using autoscan::SessionLayout;
 using autoscan::simulation::SimulateOptions;
 
 struct SimCli {
-  std::string mesh, out, config, planner, rig, paint;
+  std::string mesh, out, config, planner, rig, paint, scene;
   // Not given: the configuration's value (every given value is validated, none means "default").
   std::optional<int> max_views, max_iterations, depth;
   std::optional<double> noise;
@@ -41,8 +42,8 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
   sub->add_option("--seed", o.seed, "Seed of every random choice (default 42)");
   sub->add_option("--depth", o.depth, "Poisson octree depth (default 8)");
   sub->add_option("--rig", o.rig,
-                  "free, turntable_arm (the object on a turntable disc), pr2 (a free arm, the object on a table) or "
-                  "view_sphere");
+                  "free, turntable_arm (the object on a turntable disc), pr2 (a free arm, the object on a table), "
+                  "view_sphere, ground_mast or drone (over a ground plane; issue 18)");
   sub->add_flag("--no-support", o.no_support,
                 "No fixtures: the object floats in empty space (as before supports; docs/supports.md)");
   sub->add_option("--config", o.config, "JSON file with options: {session, scanner, rig, blind, eval, checkpoints}");
@@ -79,6 +80,10 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
     const autoscan::Rig preset = autoscan::simulation::rig_preset(o.rig);
     base.rig.kind = preset.kind;
     if (base.rig.fixtures.empty()) base.rig.fixtures = preset.fixtures;
+    if (preset.kind == autoscan::Rig::Kind::ground_mast || preset.kind == autoscan::Rig::Kind::drone) {
+      base.rig.min_height = preset.min_height;  // heights above the ground, not the arm's band
+      base.rig.max_height = preset.max_height;
+    }
   }
   if (o.no_support) base.rig.fixtures.clear();
   if (!o.paint.empty()) {
@@ -128,6 +133,7 @@ void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const s
   if (o.max_iterations && *o.max_iterations != rec.session.max_iterations)
     refuse("--max-iterations", std::to_string(*o.max_iterations), std::to_string(rec.session.max_iterations));
   if (!o.paint.empty() && o.paint != rec.paint) refuse("--paint", o.paint, rec.paint);
+  if (!o.scene.empty() && o.scene != rec.scene) refuse("--scene", o.scene, rec.scene.empty() ? "a mesh" : rec.scene);
   if (!o.rig.empty() && autoscan::simulation::rig_preset(o.rig).kind != rec.rig.kind)
     refuse("--rig", o.rig, autoscan::Rig::kind_name(rec.rig.kind));
   if (o.no_support && !rec.rig.fixtures.empty()) refuse("--no-support", "", "its fixtures");
@@ -204,6 +210,19 @@ void print_human(const autoscan::simulation::SimulateResult& r) {
     fmt::print("report:  {}\n", fs::absolute(SessionLayout(r.directory).report()).string());
 }
 
+// --scene NAME: the preset's options under the command line's, the preset's scene as the truth.
+autoscan::simulation::SimulateResult run_scene(const SimCli& o, autoscan::cli::Globals& g) {
+  AUTOSCAN_REQUIRE(o.mesh.empty(), "--scene {}: give either --mesh or --scene, not both", o.scene);
+  AUTOSCAN_REQUIRE(o.rig.empty(), "--rig {}: a scene preset sets its rig (use --scene {}-drone for the drone)", o.rig,
+                   o.scene);
+  AUTOSCAN_REQUIRE(!o.no_support, "--no-support: a scene stands on its ground (--scene {})", o.scene);
+  const SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary
+  const auto options = build_options(o, autoscan::simulation::scene_options(o.scene, defaults));
+  autoscan::log::info("simulate: meshing the scene '{}'", o.scene);
+  const auto mesh = autoscan::simulation::scene_mesh(o.scene);
+  return autoscan::simulation::simulate(mesh, o.out, options, g.progress(), "scene:" + o.scene);
+}
+
 }  // namespace
 
 AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g) {
@@ -211,6 +230,10 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
   auto* sub =
       root.add_subcommand("simulate", "Run the full autonomous scanning loop on a mesh with the virtual scanner");
   sub->add_option("--mesh", o->mesh, "Ground-truth mesh (PLY, OBJ, OFF, STL); normalised to diagonal 1");
+  sub->add_option("--scene", o->scene,
+                  "Scan a procedural scene instead of a mesh (issue 18): church, church-drone, square or "
+                  "square-drone; sets the rig (a ground mast or a drone over a ground), the scanner's range "
+                  "(6-12 % of the diagonal), the blind scan and the budgets (simulation/scene.hpp)");
   sub->add_option("--out", o->out, "Output (session) directory")->required();
   sub->add_flag("--resume", o->resume, "Continue the simulation in --out after a crash or kill");
   add_loop_options(sub, *o);
@@ -228,6 +251,8 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
                          o->mesh, o->out, recorded.source.empty() ? std::string("its truth.ply") : recorded.source);
       }
       r = autoscan::simulation::resume(o->out, g.progress());
+    } else if (!o->scene.empty()) {
+      r = run_scene(*o, g);
     } else {
       autoscan::cli::require_input_file(o->mesh, "--mesh");
       const SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary

@@ -30,7 +30,7 @@ TEST(SimulateOptions, JsonKeepsItsKeysAndRoundTrips) {
   for (const auto& [k, v] : j.items()) keys.push_back(k);
   EXPECT_EQ(keys, (std::vector<std::string>{"blind", "checkpoints", "declare_fixtures", "eval", "evaluate", "normalize",
                                             "paint", "report", "rig", "scannable", "scannable_cache",
-                                            "scannable_options", "scanner", "session"}));
+                                            "scannable_options", "scanner", "scene", "session"}));
   EXPECT_EQ(j.at("blind").size(), 4u);
   EXPECT_EQ(j.at("eval").size(), 5u);
   EXPECT_FALSE(j.at("session").at("global_registration").get<bool>());  // simulate's default

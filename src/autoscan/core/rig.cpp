@@ -252,6 +252,33 @@ Fixture fixture_from_json(const nlohmann::json& j, const std::string& what) {
   return f;
 }
 
+// ground_mast and drone: above the ground, within the height band (and, for the mast, over the ground).
+bool reachable_above_ground(const Rig& rig, const Pose& pose, std::string* why) {
+  using Kind = Rig::Kind;
+  const double min_height = rig.min_height, max_height = rig.max_height;
+  const double ground = rig.ground_height(), above = pose.position.z() - ground;
+  const char* who = rig.kind == Kind::drone ? "the drone's" : "the mast's";
+  auto fail = [&](std::string msg) {
+    if (why) *why = std::move(msg);
+    return false;
+  };
+  if (above <= 0.0)
+    return fail(fmt::format("below the ground (height {:.3f} <= the ground at {:.3f})", pose.position.z(), ground));
+  if (above < min_height || above > max_height)
+    return fail(
+        fmt::format("height {:.3f} above the ground is outside {} band [{}, {}]", above, who, min_height, max_height));
+  if (rig.kind != Kind::ground_mast) return true;
+  // The vehicle drives on the ground: the scanner stands over the ground plane's square.
+  for (const auto& f : rig.fixtures) {
+    if (!f.support || f.kind != Fixture::Kind::plane) continue;
+    const double e = f.half_extent;
+    if (std::abs(pose.position.x()) > e || std::abs(pose.position.y()) > e)
+      return fail(
+          fmt::format("({:.3f}, {:.3f}) is off the ground (|x|, |y| <= {})", pose.position.x(), pose.position.y(), e));
+  }
+  return true;
+}
+
 }  // namespace
 
 std::optional<double> Rig::support_height() const {
@@ -276,9 +303,15 @@ bool Rig::reachable(const Pose& pose, std::string* why) const {
     const auto d = fixtures[i].signed_distance(pose.position);
     if (d && *d <= 0.0) return fail(fmt::format("inside {}", fixtures[i].label(i)));
   }
+  if (inside_solid && inside_solid(pose.position))
+    return fail(fmt::format("inside a solid of the scene at ({:.3f}, {:.3f}, {:.3f})", pose.position.x(),
+                            pose.position.y(), pose.position.z()));
   switch (kind) {
     case Kind::free:
       return true;
+    case Kind::ground_mast:
+    case Kind::drone:
+      return reachable_above_ground(*this, pose, why);
     case Kind::turntable_arm: {
       const double r = pose.position.head<2>().norm();
       const double z = pose.position.z();
@@ -326,6 +359,9 @@ void Rig::validate(const std::string& what) const {
                      "{}: {} must be a finite number within ±{:g}, got {}", what, name, kMaxCoordinate, v);
   AUTOSCAN_REQUIRE(min_radius >= 0 && min_radius < max_radius, "{}: need 0 <= min_radius < max_radius", what);
   AUTOSCAN_REQUIRE(min_height < max_height, "{}: need min_height < max_height", what);
+  if (kind == Kind::ground_mast || kind == Kind::drone)
+    AUTOSCAN_REQUIRE(min_height >= 0, "{}: a {} rig's min_height is a height above the ground: need >= 0, got {}", what,
+                     kind_name(kind), min_height);
   AUTOSCAN_REQUIRE(sphere_radius > 0 && sphere_tolerance >= 0, "{}: sphere_radius must be positive", what);
   AUTOSCAN_REQUIRE(turntable_cost_per_rad >= 0, "{}: turntable_cost_per_rad must be >= 0", what);
   for (std::size_t i = 0; i < fixtures.size(); ++i) fixtures[i].validate(fmt::format("{}.fixtures[{}]", what, i));
@@ -335,7 +371,10 @@ Rig::Kind Rig::parse_kind(const std::string& name) {
   if (name == "free") return Kind::free;
   if (name == "turntable_arm" || name == "turntable") return Kind::turntable_arm;
   if (name == "view_sphere" || name == "sphere") return Kind::view_sphere;
-  throw InputError(fmt::format("unknown rig '{}' (expected free, turntable_arm or view_sphere)", name));
+  if (name == "ground_mast" || name == "mast") return Kind::ground_mast;
+  if (name == "drone") return Kind::drone;
+  throw InputError(
+      fmt::format("unknown rig '{}' (expected free, turntable_arm, view_sphere, ground_mast or drone)", name));
 }
 
 std::string Rig::kind_name(Kind k) {
@@ -346,6 +385,10 @@ std::string Rig::kind_name(Kind k) {
       return "turntable_arm";
     case Kind::view_sphere:
       return "view_sphere";
+    case Kind::ground_mast:
+      return "ground_mast";
+    case Kind::drone:
+      return "drone";
   }
   return "free";
 }

@@ -6,6 +6,13 @@
 //                    [min_height, max_height]. Any azimuth is reachable by turning the table.
 //  * view_sphere   — poses on a sphere of radius `sphere_radius` around the origin, looking at it
 //                    (the classic sphere-based planners, e.g. Vasquez-Gomez 2009).
+//  * ground_mast   — a ground vehicle with a mast (scene scale, issue 18): the scanner anywhere over the
+//                    ground (the support plane's square, docs/supports.md) at a height above the ground
+//                    within [min_height, max_height]; never inside a solid (`inside_solid`).
+//  * drone         — any free pose above the ground, at most max_height above it (and at least
+//                    min_height), never inside a solid (`inside_solid`).
+// For ground_mast and drone the ground is the support's top (a `plane` fixture; z = 0 without one) and
+// min_height / max_height are heights above it.
 // A pose outside the reach is reported as unreachable with a reason, never silently moved.
 //
 // Fixtures (issue 17, docs/supports.md): the geometry that stands in the scene besides the object,
@@ -13,6 +20,7 @@
 // `disc`), a holder or a part of the robot (`box`, or a `mesh` file). The virtual scanner puts them
 // into its scene (they occlude and are scanned); the session removes the points within
 // `tolerance` of them; no pose may lie inside a fixture or at or below a support's top.
+#include <functional>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
@@ -58,11 +66,11 @@ struct Fixture {
 };
 
 struct Rig {
-  enum class Kind { free, turntable_arm, view_sphere };
+  enum class Kind { free, turntable_arm, view_sphere, ground_mast, drone };
   Kind kind = Kind::free;
   double min_radius = 0.3;  ///< turntable_arm: distance from the Z axis
   double max_radius = 2.5;
-  double min_height = -1.5;  ///< turntable_arm: scanner height
+  double min_height = -1.5;  ///< turntable_arm: scanner height; ground_mast, drone: height above the ground
   double max_height = 2.0;
   double sphere_radius = 1.2;           ///< view_sphere
   double sphere_tolerance = 1e-3;       ///< view_sphere: allowed radial deviation
@@ -70,6 +78,13 @@ struct Rig {
   /// Fixtures in the scene (the support first by convention; docs/supports.md). Empty: the object
   /// floats (`simulate --no-support`).
   std::vector<Fixture> fixtures;
+  /// Runtime only, not in JSON: the scene's solids as an inside test (the known mesh in the simulator,
+  /// the reconstructed model in the planner). When set, a pose inside is refused ("inside a solid") by
+  /// every kind of rig. Empty: no solid is known to the rig (the scanner still refuses the mesh's inside).
+  std::function<bool(const Vec3&)> inside_solid;
+
+  /// The ground of a ground_mast or drone rig: the support's top, 0 when there is no support.
+  double ground_height() const { return support_height().value_or(0.0); }
 
   /// The highest top among the support fixtures (nullopt when none is declared).
   std::optional<double> support_height() const;

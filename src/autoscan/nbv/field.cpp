@@ -91,7 +91,7 @@ namespace detail {
 
 std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const spatial::KdTree& tree,
                                         const ScannerSpec& scanner, const spatial::RayScene& scene,
-                                        const ImplicitField* field, int block_size) {
+                                        const ImplicitField* field, int block_size, std::optional<double> ground) {
   const auto& dims = grid.dims;
   const std::size_t nvox = grid.size();
   std::vector<VoxelState> state(nvox, VoxelState::too_far);
@@ -132,6 +132,9 @@ std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData&
     }
   });
   (void)iso;
+  if (ground)
+    for (std::size_t v = 0; v < nvox; ++v)
+      if (grid.center(v).z() <= *ground) state[v] = VoxelState::inside;
   auto is_inside = [&](const Vec3& p) { return field ? field->inside(p) : scene.inside(p); };
   // Outside test. Adjacent candidate centres are joined by a segment that stays farther than
   // d_n - h/2 > 0 from the surface, so a 6-connected component of candidates lies on one side of it:

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -87,10 +88,14 @@ inline std::vector<std::uint32_t> radius_indices(const spatial::KdTree& tree, co
 }
 
 /// Candidate mask (§5.1). Empty voxels whose distance to the surface (nearest iso-point) is in
-/// [d_n, d_f]; outside tested with `field` when given, else with the mesh.
+/// [d_n, d_f]; outside tested with `field` when given, else with the mesh. With a `ground` (a scene
+/// rig's, issue 18) the voxels whose centre lies at or below it are inside the ground: never views,
+/// and their candidates are not joined with those above (the surface under a scene's ground is open
+/// at the solver's box, so one component could otherwise wrap around its edge).
 std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData& iso, const spatial::KdTree& tree,
                                         const ScannerSpec& scanner, const spatial::RayScene& scene,
-                                        const ImplicitField* field, int block_size);
+                                        const ImplicitField* field, int block_size,
+                                        std::optional<double> ground = std::nullopt);
 
 /// Eq. 4 on every candidate voxel, brute force or fast (see FieldMethod). Fills g, direction, argmax.
 void compute_vvf(ViewingField& vf, const IsoData& iso, const spatial::RayScene& scene, const Weights& W,

@@ -31,7 +31,11 @@ struct NbvPlanner::Impl {
     Stopwatch sw;
     ViewingField vf;
     vf.grid = search_box(iso.p, scanner.far, options.grid_resolution);
-    vf.state = detail::classify_voxels(vf.grid, iso, tree, scanner, *scene, f, options.block_size);
+    const bool scene_rig = rig.kind == Rig::Kind::ground_mast || rig.kind == Rig::Kind::drone;
+    // A scene's Poisson field is unreliable far above the ground, away from the data (its value
+    // there may sit on either side of the iso-value): the mesh's inside test decides there.
+    vf.state = detail::classify_voxels(vf.grid, iso, tree, scanner, *scene, scene_rig ? nullptr : f, options.block_size,
+                                       scene_rig ? std::optional<double>(rig.ground_height()) : std::nullopt);
     diag.iso_points = iso.size();
     diag.voxels = vf.grid.size();
     diag.candidates = static_cast<std::size_t>(std::count(vf.state.begin(), vf.state.end(), VoxelState::candidate));

@@ -1,6 +1,10 @@
 #include "autoscan/session/reconstruct.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <type_traits>
 
 #include "autoscan/confidence/confidence.hpp"
 #include "autoscan/consolidate/consolidate.hpp"
@@ -20,15 +24,57 @@ std::vector<Rgb> surface_colors(const TriangleMesh& mesh, const PointCloud& raw,
   return color_vertices(mesh.vertices, raw, weights, neighbours);
 }
 
+namespace {
+// Drops the faces whose three vertices lie below z, and the vertices no face uses any more (with
+// their normals, colours and scalars).
+void clip_mesh_below(TriangleMesh& mesh, double z) {
+  std::vector<int> remap(mesh.vertices.size(), -1);
+  std::vector<std::size_t> keep;
+  std::vector<Tri> faces;
+  for (Tri f : mesh.faces) {
+    if (std::max({mesh.vertices[f[0]].z(), mesh.vertices[f[1]].z(), mesh.vertices[f[2]].z()}) < z) continue;
+    for (int k = 0; k < 3; ++k) {
+      if (remap[f[k]] < 0) {
+        remap[f[k]] = static_cast<int>(keep.size());
+        keep.push_back(static_cast<std::size_t>(f[k]));
+      }
+      f[k] = remap[f[k]];
+    }
+    faces.push_back(f);
+  }
+  auto pick = [&](auto& v) {
+    if (v.empty()) return;
+    std::remove_reference_t<decltype(v)> out;
+    out.reserve(keep.size());
+    for (auto i : keep) out.push_back(v[i]);
+    v = std::move(out);
+  };
+  pick(mesh.vertices);
+  pick(mesh.vertex_normals);
+  pick(mesh.vertex_colors);
+  mesh.vertex_scalars.select(keep);
+  mesh.faces = std::move(faces);
+  mesh.face_uvs.clear();
+}
+}  // namespace
+
 Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& options,
                                  const ProgressCallback& progress) {
+  return reconstruct_with_fixed(raw, options, PointCloud{}, -std::numeric_limits<double>::infinity(), progress);
+}
+
+Reconstruction reconstruct_with_fixed(const PointCloud& raw, const SessionOptions& options, const PointCloud& fixed,
+                                      double clip_below, const ProgressCallback& progress) {
   AUTOSCAN_REQUIRE(!raw.empty(), "reconstruction: the model has no points");
+  AUTOSCAN_REQUIRE(fixed.empty() || fixed.normals.size() == fixed.size(),
+                   "reconstruction: fixed points need one normal each");
   Reconstruction r;
   Stopwatch clock;
   // §4.1: thinning, outliers, WLOP, normals oriented toward the sensors.
   consolidate::ConsolidateResult cons = consolidate::consolidate(raw, options.consolidate, progress);
   r.seconds["consolidate"] = clock.seconds();
   r.consolidated = std::move(cons.cloud);
+  if (!fixed.empty()) r.consolidated.append(fixed);
   r.diagnostics["consolidate"] = {{"points_in", cons.points_in},
                                   {"points_out", cons.points_out},
                                   {"outliers_removed", cons.outliers.removed},
@@ -69,6 +115,7 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   r.seconds["poisson"] = clock.seconds();
   AUTOSCAN_CHECK(pr.field != nullptr, "reconstruction: the Poisson stage returned no field");
   AUTOSCAN_CHECK(!pr.mesh.empty(), "reconstruction: the Poisson iso-surface is empty");
+  if (std::isfinite(clip_below)) clip_mesh_below(pr.mesh, clip_below);
   r.field = pr.field;
   r.reference_gradient = pr.field->reference_gradient();
   r.diagnostics["poisson"] = {{"depth", pr.field->depth()},      {"finest_depth", pr.diagnostics.finest_depth},
@@ -82,7 +129,13 @@ Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& op
   const bool against_consolidated = options.smoothness_points == SmoothnessPoints::consolidated ||
                                     (options.smoothness_points == SmoothnessPoints::automatic && cons.wlop.applied &&
                                      r.consolidated.size() >= static_cast<std::size_t>(std::max(co.k, 1)));
-  const PointCloud& q = against_consolidated ? r.consolidated : raw;
+  // The fixed points are measured surface too (a scene's ground): they join Q when Q is the raw cloud.
+  PointCloud raw_and_fixed;
+  if (!fixed.empty() && !against_consolidated) {
+    raw_and_fixed = raw;
+    raw_and_fixed.append(fixed);
+  }
+  const PointCloud& q = against_consolidated ? r.consolidated : (fixed.empty() ? raw : raw_and_fixed);
   confidence::ConfidenceResult cr = confidence::assess_confidence(*pr.field, pr.mesh, q, r.reference_gradient, co);
   r.seconds["confidence"] = clock.seconds();
   r.mesh = std::move(cr.mesh);

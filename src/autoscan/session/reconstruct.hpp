@@ -50,5 +50,13 @@ std::vector<Rgb> surface_colors(const TriangleMesh& mesh, const PointCloud& raw,
 /// Throws InputError when the points are too few or degenerate for a model.
 Reconstruction reconstruct_model(const PointCloud& raw, const SessionOptions& options,
                                  const ProgressCallback& progress = {});
+/// The same with `fixed`: oriented points (unit outward normals) joined to the consolidated cloud
+/// before Poisson, past consolidation's thinning and outlier filters (a scene's ground,
+/// simulation/scene.hpp: sparse against the scans, the filters would drop it as outliers); they are
+/// also among the points Q that Eq. 2 measures the iso-points against. The Poisson mesh's faces
+/// entirely below `clip_below` (Z) are dropped before the iso-points are drawn: the surface the solver
+/// closes under a scene's ground is no surface to assess or to plan for.
+Reconstruction reconstruct_with_fixed(const PointCloud& raw, const SessionOptions& options, const PointCloud& fixed,
+                                      double clip_below, const ProgressCallback& progress = {});
 
 }  // namespace autoscan::session

@@ -45,6 +45,18 @@ Rig rig_preset(const std::string& name) {
     disc.thickness = 0.05;
     r.fixtures.push_back(disc);
   }
+  if (r.kind == Rig::Kind::ground_mast || r.kind == Rig::Kind::drone) {
+    // An object on the ground (issue 18): the ground a plane at kSupportHeight, the mast 0.05-1.0
+    // above it (the object is about 0.6 high), the drone up to 3.0.
+    Fixture ground;
+    ground.kind = Fixture::Kind::plane;
+    ground.name = "ground";
+    ground.height = kSupportHeight;
+    ground.half_extent = 3.0;
+    r.fixtures.push_back(ground);
+    r.min_height = 0.05;
+    r.max_height = r.kind == Rig::Kind::drone ? 3.0 : 1.0;
+  }
   return r;
 }
 

@@ -18,7 +18,9 @@ std::vector<TriangleMesh> fixture_meshes(const Rig& rig);
 /// The rig `simulate --rig NAME` starts from: "turntable_arm" (or "turntable") with a turntable disc
 /// (radius 0.45, 0.05 thick, top at z = kSupportHeight); "pr2" (or "table", a free arm: the PR2 of
 /// the paper's Figure 1 holding a table) with a table plane (half extent 1.5, at kSupportHeight);
-/// "free" and "view_sphere" without fixtures. Throws InputError for an unknown name.
+/// "free" and "view_sphere" without fixtures; "ground_mast" (or "mast") and "drone" over a ground plane
+/// (half extent 3, at kSupportHeight; heights above it 0.05-1.0 for the mast, 0.05-3.0 for the drone;
+/// issue 18). Throws InputError for an unknown name.
 Rig rig_preset(const std::string& name);
 /// The default support top: just under a normalised object (diagonal 1, centred: its lowest point
 /// lies at about -0.2 to -0.35), so that resting it moves it little.

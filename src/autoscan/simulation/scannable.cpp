@@ -11,6 +11,7 @@
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/core/timer.hpp"
+#include "autoscan/planners/common.hpp"
 #include "autoscan/scanner/virtual_scanner.hpp"
 #include "autoscan/session/supports.hpp"
 #include "autoscan/shapes/primitives.hpp"
@@ -57,7 +58,15 @@ ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerS
     const PointCloud samples = sample_surface(truth, static_cast<std::size_t>(o.surface_views), rng);
     for (std::size_t i = 0; i < samples.size(); ++i) {
       const Vec3 p = samples.positions[i], n = samples.normals[i];
-      if (n.squaredNorm() > 0) poses.push_back(looking_at(p + d * n.normalized(), p));
+      if (n.squaredNorm() <= 0) continue;
+      Pose pose = looking_at(p + d * n.normalized(), p);
+      // A scene rig (a mast, a drone; issue 18) cannot reach every normal view: a roof above the mast
+      // is still seen obliquely from the top of its band. Move the view into the rig's reach, as the
+      // planners do (planners/common.hpp), before counting the sample as unscannable.
+      const bool scene_rig = rig.kind == Rig::Kind::ground_mast || rig.kind == Rig::Kind::drone;
+      if (scene_rig && sc.refusal(pose))
+        if (const auto placed = planners::detail::place_view(rig, s, pose.position, p)) pose = *placed;
+      poses.push_back(pose);
     }
   }
   if (o.sphere_views > 0) {

@@ -6,7 +6,9 @@
 // same rig), noise-free, scans the truth from a dense, planner-independent set of views:
 //  * one view per surface sample (`surface_views` samples spread over the truth by area): at the
 //    optimal distance d_o along the sample's outward normal, looking at it (the view a perfect
-//    next-best-view planner would choose for that patch);
+//    next-best-view planner would choose for that patch); for a scene rig (ground_mast, drone) a
+//    view out of its reach is moved into it as the planners move theirs (a roof seen obliquely from
+//    the top of the mast);
 //  * `sphere_views` views on a sphere of radius d_o around the object's centre, looking at it.
 // Views the rig cannot reach or that lie inside the object are skipped, as in a session. The union,
 // voxel-thinned, is the reference: a truth sample within τ of it is *scannable*

@@ -21,6 +21,7 @@
 #include "autoscan/shapes/normalize.hpp"
 #include "autoscan/shapes/paint.hpp"
 #include "autoscan/simulation/fixtures.hpp"
+#include "autoscan/simulation/scene.hpp"
 
 namespace autoscan::simulation {
 namespace fs = std::filesystem;
@@ -35,6 +36,13 @@ void SimulateOptions::validate(const std::string& what) const {
   eval.validate("evaluation");
   scannable_options.validate();
   paint_from_name(paint, what + ": paint");
+  if (!scene.empty()) {
+    const auto names = scene_preset_names();
+    std::string known;
+    for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+    AUTOSCAN_REQUIRE(std::find(names.begin(), names.end(), scene) != names.end(),
+                     "{}: scene: unknown scene '{}' (expected {})", what, scene, known);
+  }
   schema::check(*this, what);  // the rest (checkpoints)
 }
 
@@ -215,7 +223,14 @@ class Loop {
   SimulateResult run(session::Session& s) {
     Stopwatch clock;
     s.set_progress(progress_);
+    // A scene stands on its ground: the Poisson input gets the ground under the model (scene.hpp).
+    if (!opts_.scene.empty())
+      if (const auto g = opts_.rig.support_height())
+        reconstructor_ = ground_closing_reconstructor(*g, opts_.scanner.far);
+    s.set_reconstructor(reconstructor_);
     recover_registration_errors(s);
+    views_at_start_ = views_done(s);
+    run_clock_.reset();
     blind_phase(s);
     nbv_phase(s);
     SimulateResult r;
@@ -297,7 +312,9 @@ class Loop {
       write_text_atomic(dir_ / kSkippedFile, j.dump());
       return false;
     }
+    const Stopwatch scan_clock;
     const scanner::ScanResult r = scanner_->scan(pose, id, scan_seed());
+    scan_seconds_ += scan_clock.seconds();
     if (!r.fixture_points.empty()) {
       std::size_t n = 0;
       for (auto c : r.fixture_points) n += c;
@@ -416,7 +433,9 @@ class Loop {
   }
 
   void blind_phase(session::Session& s) {
-    const auto poses = scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind);
+    const auto poses = opts_.scene.empty()
+                           ? scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind)
+                           : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig, opts_.blind.views);
     if (!s.iterations().empty()) return;
     for (std::size_t i = 0; i < poses.size(); ++i) {
       const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
@@ -480,7 +499,7 @@ class Loop {
   void maybe_checkpoint(session::Session& s, bool last_view_of_iteration) {
     const int v = views_done(s);
     if (last_view_of_iteration || !is_pending_checkpoint(v)) return;
-    const auto model = session::reconstruct_model(s.model_points(), s.options());
+    const auto model = reconstructor_(s.model_points(), s.options(), {});
     record_checkpoint(
         v, truth_figures(model.mesh, s.model_points(), truth_, opts_.eval, reference(), opts_.session.color_neighbours),
         model.mean_f);
@@ -553,6 +572,7 @@ class Loop {
       if (s.iterations().empty()) {
         const auto step = s.next_views();
         attach_truth_if_missing(s, step.reconstruction ? &step.reconstruction->mesh : nullptr);
+        progress_line(s);
         continue;
       }
       attach_truth_if_missing(s, nullptr);
@@ -578,7 +598,40 @@ class Loop {
       }
       const auto step = s.next_views();
       attach_truth_if_missing(s, step.reconstruction ? &step.reconstruction->mesh : nullptr);
+      progress_line(s);
     }
+  }
+
+  // One line per iteration a person can follow on a long run (issue 18): the model's points, the
+  // views, the coverage when the truth is known, this iteration's time split into the virtual
+  // scanning and the rest (compute), the time so far and an estimate of the time left: the mean time
+  // per view so far times the views left, or per iteration times the iterations left if fewer.
+  void progress_line(const session::Session& s) {
+    if (s.iterations().empty()) return;
+    const auto& it = s.iterations().back();
+    const double now = run_clock_.seconds(), took = now - last_line_at_, scanning = scan_seconds_ - last_scan_seconds_;
+    last_line_at_ = now;
+    last_scan_seconds_ = scan_seconds_;
+    ++lines_;
+    const int views = views_done(s), max_views = opts_.session.max_views;
+    const int iterations_left = std::max(0, opts_.session.max_iterations - static_cast<int>(s.iterations().size()));
+    double eta = 0.0;
+    if (!it.stopped && lines_ > 0) {
+      const double per_iteration = now / lines_;
+      eta = per_iteration * iterations_left;
+      if (views > views_at_start_)
+        eta = std::min(eta, (now / (views - views_at_start_)) * std::max(0, max_views - views));
+    }
+    std::string coverage = "-";
+    if (it.truth.is_object() && it.truth.contains("coverage_scannable"))
+      coverage = fmt::format("{:.1f} % of the scannable", 100.0 * it.truth.value("coverage_scannable", 0.0));
+    else if (it.truth.is_object() && it.truth.contains("coverage"))
+      coverage = fmt::format("{:.1f} %", 100.0 * it.truth.value("coverage", 0.0));
+    log::info(
+        "progress: iteration {}: {} model points, {}/{} views, coverage {}, mean f {:.3f}; {:.0f} s ({:.0f} s "
+        "scanning, {:.0f} s compute), {:.0f} s so far, about {:.0f} s left{}",
+        it.index, it.raw_points, views, max_views, coverage, it.mean_f, took, scanning, took - scanning, now, eta,
+        it.stopped ? fmt::format(" (stopped: {})", it.stop_reason) : std::string());
   }
 
   fs::path dir_;
@@ -591,6 +644,11 @@ class Loop {
   std::set<std::pair<int, int>> skipped_views_;  // (iteration or -1 for the blind scan, view index)
   std::optional<PointCloud> reference_;
   json registration_errors_ = json::array();
+  session::Reconstructor reconstructor_ = session::reconstruct_model;  // scene: with the ground (scene.hpp)
+  // progress_line: the run's clock (this process), the virtual scanner's share, lines written.
+  Stopwatch run_clock_;
+  double scan_seconds_ = 0.0, last_scan_seconds_ = 0.0, last_line_at_ = 0.0;
+  int lines_ = 0, views_at_start_ = 0;
 };
 
 // The rig the session is told about: without its fixtures when they are not declared.

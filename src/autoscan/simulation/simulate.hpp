@@ -64,6 +64,10 @@ struct SimulateOptions {
   /// is measured (truth figures color_error_quality / color_error_average). "none" keeps the
   /// mesh's own colours, if any.
   std::string paint = "none";
+  /// Scene mode (issue 18, simulation/scene.hpp): the preset the run was started with ("" for an
+  /// object). It makes the blind scan a ring around the scene's footprint at the mast's height
+  /// (scene_blind_poses) instead of rings on a sphere around the object.
+  std::string scene;
 
   /// The JSON form (a --config file, simulation.json's "options"; docs/options.md). `scanner` and
   /// `rig` are not in the list: they keep their own JSON readers (core/scanner_spec.hpp, rig.hpp),
@@ -82,6 +86,7 @@ struct SimulateOptions {
     v("report", report);
     v("paint", paint);
     v("declare_fixtures", declare_fixtures);
+    v("scene", scene);
   }
   void validate(const std::string& what = "simulation") const;
 };
