@@ -80,7 +80,7 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
     const autoscan::Rig preset = autoscan::simulation::rig_preset(o.rig);
     base.rig.kind = preset.kind;
     if (base.rig.fixtures.empty()) base.rig.fixtures = preset.fixtures;
-    if (preset.kind == autoscan::Rig::Kind::ground_mast || preset.kind == autoscan::Rig::Kind::drone) {
+    if (preset.on_ground()) {
       base.rig.min_height = preset.min_height;  // heights above the ground, not the arm's band
       base.rig.max_height = preset.max_height;
     }

@@ -83,6 +83,9 @@ struct Rig {
   /// every kind of rig. Empty: no solid is known to the rig (the scanner still refuses the mesh's inside).
   std::function<bool(const Vec3&)> inside_solid;
 
+  /// A scene rig (ground_mast or drone): the scanner moves over a ground, not around an object.
+  bool on_ground() const { return kind == Kind::ground_mast || kind == Kind::drone; }
+
   /// The ground of a ground_mast or drone rig: the support's top, 0 when there is no support.
   double ground_height() const { return support_height().value_or(0.0); }
 

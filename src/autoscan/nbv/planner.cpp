@@ -31,7 +31,7 @@ struct NbvPlanner::Impl {
     Stopwatch sw;
     ViewingField vf;
     vf.grid = search_box(iso.p, scanner.far, options.grid_resolution);
-    const bool scene_rig = rig.kind == Rig::Kind::ground_mast || rig.kind == Rig::Kind::drone;
+    const bool scene_rig = rig.on_ground();
     // A scene's Poisson field is unreliable far above the ground, away from the data (its value
     // there may sit on either side of the iso-value): the mesh's inside test decides there.
     vf.state = detail::classify_voxels(vf.grid, iso, tree, scanner, *scene, scene_rig ? nullptr : f, options.block_size,
@@ -143,10 +143,11 @@ AimResult aim(const Vec3& v, int seed, const IsoData& iso, const spatial::KdTree
     std::vector<std::uint32_t> thin;
     thin.reserve(keep + 1);
     for (std::size_t t = 0; t < keep; ++t) thin.push_back(cands[t * cands.size() / keep]);
-    if (std::find(cands.begin(), cands.end(), static_cast<std::uint32_t>(sk)) != cands.end() &&
-        std::find(thin.begin(), thin.end(), static_cast<std::uint32_t>(sk)) == thin.end())
-      thin.push_back(static_cast<std::uint32_t>(sk));
-    std::sort(thin.begin(), thin.end());
+    // Both lists are in increasing index order (radius_indices); the seed goes in at its place.
+    const auto seed_id = static_cast<std::uint32_t>(sk);
+    if (std::binary_search(cands.begin(), cands.end(), seed_id) &&
+        !std::binary_search(thin.begin(), thin.end(), seed_id))
+      thin.insert(std::lower_bound(thin.begin(), thin.end(), seed_id), seed_id);
     cands = std::move(thin);
   }
   std::vector<std::pair<double, double>> score(cands.size());  // (eta, zeta)

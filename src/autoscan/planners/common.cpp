@@ -23,7 +23,7 @@ std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const
       if (r < 1e-12) return std::nullopt;
       p.head<2>() *= std::clamp(r, rig.min_radius, rig.max_radius) / r;
       p.z() = std::clamp(p.z(), rig.min_height, rig.max_height);
-    } else if (rig.kind == Rig::Kind::ground_mast || rig.kind == Rig::Kind::drone) {
+    } else if (rig.on_ground()) {
       // Heights above the ground (core/rig.hpp): into the mast's or the drone's band.
       const double g = rig.ground_height();
       p.z() = std::clamp(p.z(), g + std::max(rig.min_height, 1e-9), g + rig.max_height);

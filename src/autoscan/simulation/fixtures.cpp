@@ -45,7 +45,7 @@ Rig rig_preset(const std::string& name) {
     disc.thickness = 0.05;
     r.fixtures.push_back(disc);
   }
-  if (r.kind == Rig::Kind::ground_mast || r.kind == Rig::Kind::drone) {
+  if (r.on_ground()) {
     // An object on the ground (issue 18): the ground a plane at kSupportHeight, the mast 0.05-1.0
     // above it (the object is about 0.6 high), the drone up to 3.0.
     Fixture ground;

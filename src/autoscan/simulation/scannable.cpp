@@ -63,7 +63,7 @@ ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerS
       // A scene rig (a mast, a drone; issue 18) cannot reach every normal view: a roof above the mast
       // is still seen obliquely from the top of its band. Move the view into the rig's reach, as the
       // planners do (planners/common.hpp), before counting the sample as unscannable.
-      const bool scene_rig = rig.kind == Rig::Kind::ground_mast || rig.kind == Rig::Kind::drone;
+      const bool scene_rig = rig.on_ground();
       if (scene_rig && sc.refusal(pose))
         if (const auto placed = planners::detail::place_view(rig, s, pose.position, p)) pose = *placed;
       poses.push_back(pose);
