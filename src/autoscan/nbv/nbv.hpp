@@ -157,7 +157,10 @@ struct GridGeometry {
 
 /// Why a voxel is or is not a candidate view position (§5.1: empty voxels at least d_n and at most
 /// d_f from the surface).
-enum class VoxelState : std::uint8_t { candidate = 0, inside = 1, too_close = 2, too_far = 3 };
+/// A voxel's place in the search space: a candidate viewpoint, or why not (inside the model or the
+/// ground, nearer than d_n or farther than d_f from the surface, or a position the rig cannot take:
+/// below the support, inside a fixture, outside the arm's reach).
+enum class VoxelState : std::uint8_t { candidate = 0, inside = 1, too_close = 2, too_far = 3, unreachable = 4 };
 
 /// The viewing vector field (VVF) of §5.1.
 struct ViewingField {
@@ -196,6 +199,7 @@ struct NbvDiagnostics {
   std::size_t cell_maxima = 0;           ///< §5.2: cells with a candidate of g > 0
   std::size_t above_threshold = 0;       ///< cell maxima with g >= min_score
   std::size_t dropped_unreachable = 0;   ///< views the rig cannot reach (dropped, never moved)
+  std::size_t unreachable_voxels = 0;    ///< voxels in range whose position the rig cannot take (no candidates)
   std::size_t dropped_out_of_range = 0;  ///< views with no visible target within [d_n, d_f]
   std::size_t pool = 0;                  ///< joint: candidates evaluated (per-cell maxima + region views)
   std::size_t regions = 0;               ///< joint: low-confidence regions (f < region_confidence)

@@ -1,7 +1,9 @@
 // NbvPlanner: search space (§5.1), field (Eq. 4), field-guided selection (§5.2), aiming (Eq. 5), path.
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -36,6 +38,28 @@ struct NbvPlanner::Impl {
     // there may sit on either side of the iso-value): the mesh's inside test decides there.
     vf.state = detail::classify_voxels(vf.grid, iso, tree, scanner, *scene, scene_rig ? nullptr : f, options.block_size,
                                        scene_rig ? std::optional<double>(rig.ground_height()) : std::nullopt);
+    // Positions the rig cannot take (below the support, inside a fixture or a known solid, outside
+    // the arm's reach) are no candidates: neither Eq. 4's maxima nor the region search may pick a
+    // view there (on a turntable the best-scored positions for the belly lie under the disc). The
+    // view sphere's rig is left out: its views are snapped onto the sphere, not dropped.
+    if (rig.kind != Rig::Kind::view_sphere) {
+      std::atomic<std::size_t> cut{0};
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vf.grid.size(), 4096),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          std::size_t local = 0;
+                          Pose at;
+                          for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                            if (vf.state[v] != VoxelState::candidate) continue;
+                            at.position = vf.grid.center(v);
+                            if (!rig.reachable(at)) {
+                              vf.state[v] = VoxelState::unreachable;
+                              ++local;
+                            }
+                          }
+                          cut += local;
+                        });
+      diag.unreachable_voxels = cut.load();
+    }
     diag.iso_points = iso.size();
     diag.voxels = vf.grid.size();
     diag.candidates = static_cast<std::size_t>(std::count(vf.state.begin(), vf.state.end(), VoxelState::candidate));

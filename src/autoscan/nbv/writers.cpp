@@ -47,6 +47,7 @@ nlohmann::json diagnostics_to_json(const NbvDiagnostics& d) {
           {"cell_maxima", d.cell_maxima},
           {"above_threshold", d.above_threshold},
           {"dropped_unreachable", d.dropped_unreachable},
+          {"unreachable_voxels", d.unreachable_voxels},
           {"dropped_out_of_range", d.dropped_out_of_range},
           {"pool", d.pool},
           {"regions", d.regions},
@@ -160,6 +161,9 @@ void write_slice_png(const std::filesystem::path& path, const ViewingField& fiel
           break;
         case VoxelState::too_close:
           c = {25, 25, 25};
+          break;
+        case VoxelState::unreachable:
+          c = {60, 30, 75};
           break;
         case VoxelState::too_far:
           break;

@@ -299,7 +299,8 @@ std::string remaining_rule(const Certificate& certificate, double mean_f, std::o
                            const StopOptions& options) {
   // Quality fell: worse than the best iteration beyond the noise of the measure. Stop at once; the
   // best iteration's model is the result.
-  if (best_previous_mean_f && *best_previous_mean_f - mean_f > options.quality_tolerance) return "quality_fell";
+  if (!options.quality_by_truth && best_previous_mean_f && *best_previous_mean_f - mean_f > options.quality_tolerance)
+    return "quality_fell";
   // Nothing left that views can improve (a small share of the surface).
   if (certificate.done) return "complete";
   // The last rounds' views raised the confidence nowhere they looked.
@@ -676,6 +677,18 @@ struct Session::Impl {
 
   void update_best() {
     if (best_fixed) return;
+    if (options.stop.quality_by_truth) {
+      // The driver knows the truth: the latest iteration whose F-score is within the tolerance of the
+      // best one's (iterations without truth figures yet are not candidates).
+      std::vector<double> fs(iterations.size(), -1.0);
+      for (std::size_t i = 0; i < iterations.size(); ++i)
+        if (iterations[i].truth.is_object() && iterations[i].truth.contains("fscore"))
+          fs[i] = iterations[i].truth["fscore"].get<double>();
+      if (std::any_of(fs.begin(), fs.end(), [](double x) { return x >= 0.0; })) {
+        best_iteration = best_by_confidence(fs, options.stop.truth_fscore_tolerance);
+        return;
+      }
+    }
     std::vector<double> f;
     for (const auto& it : iterations) f.push_back(it.mean_f);
     best_iteration = best_by_confidence(f, options.stop.quality_tolerance);
@@ -1454,6 +1467,11 @@ void Session::attach_truth(int index, const json& truth) {
   AUTOSCAN_REQUIRE(index >= 0 && index < static_cast<int>(m.iterations.size()),
                    "attach_truth: no iteration {} (the session has {})", index, m.iterations.size());
   m.iterations[static_cast<std::size_t>(index)].truth = truth;
+  if (m.options.stop.quality_by_truth && !m.best_fixed) {
+    const int before = m.best_iteration;
+    m.update_best();
+    if (m.stopped && m.best_iteration != before) m.write_result_model();
+  }
   m.persist();
 }
 

@@ -709,7 +709,13 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
               {"source", source},
               {"options", to_json(options)}};
   write_text_atomic(out / kSimFile, sim.dump(2));
-  auto s = session::Session::create(out, options.scanner, session_rig(options), options.session);
+  // The truth judges the quality (stop.quality_by_truth): the driver stops on a fall of the F-score,
+  // and the result is the best iteration by it.
+  session::SessionOptions session_options = options.session;
+  if (options.evaluate && session_options.stop.rule == session::StopRule::remaining &&
+      session_options.stop.truth_fscore_tolerance > 0.0)
+    session_options.stop.quality_by_truth = true;
+  auto s = session::Session::create(out, options.scanner, session_rig(options), session_options);
   Loop loop(out, std::move(truth), options, progress);
   return loop.run(s);
 }

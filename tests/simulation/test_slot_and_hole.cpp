@@ -1,0 +1,121 @@
+// Issue 23: phantom surfaces must not draw views, real holes must. A block with a deep slot (a pocket
+// open only at the top) and a through-hole (a cylinder through the block): after the blind scan the
+// slot's floor and walls are barely seen, and the screened Poisson surface may bridge the hole's
+// mouths. The first round of next-best views must look into the slot and aim no view at a bridge
+// across the hole (the blind scan's rays crossed it: docs/planners.md, phantom suppression).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "autoscan/core/atomic_file.hpp"
+#include "autoscan/io/mesh_io.hpp"
+#include "autoscan/shapes/implicit_mesher.hpp"
+#include "autoscan/simulation/fixtures.hpp"
+#include "autoscan/simulation/simulate.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace autoscan;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The block |x| <= 0.36, |y| <= 0.2, |z| <= 0.2 (diagonal 0.92); the slot x in [-0.28, -0.16],
+// |y| <= 0.12, from the top face down to z = -0.1 (0.3 deep, 0.12 wide); the hole along Y through
+// the whole block, axis x = 0.18, z = 0, radius 0.06.
+struct SlotAndHole {
+  static constexpr double hx = 0.36, hy = 0.2, hz = 0.2;
+  static constexpr double slot_x0 = -0.28, slot_x1 = -0.16, slot_hy = 0.12, slot_floor = -0.1;
+  static constexpr double hole_x = 0.18, hole_z = 0.0, hole_r = 0.06;
+  static constexpr double lift = -0.1;  // the block stands on the turntable's disc (its top at z = -0.3)
+  static Vec3 local(const Vec3& p) { return p - Vec3(0, 0, lift); }
+
+  static double box_sdf(const Vec3& p, const Vec3& lo, const Vec3& hi) {
+    const Vec3 c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+    const Vec3 q = (p - c).cwiseAbs() - h;
+    return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+  }
+  // f < 0 inside: the block minus the slot minus the hole.
+  static double sdf(const Vec3& world) {
+    const Vec3 p = local(world);
+    const double block = box_sdf(p, Vec3(-hx, -hy, -hz), Vec3(hx, hy, hz));
+    const double slot = box_sdf(p, Vec3(slot_x0, -slot_hy, slot_floor), Vec3(slot_x1, slot_hy, hz + 0.1));
+    const double hole = hole_r - std::hypot(p.x() - hole_x, p.z() - hole_z);  // > 0 inside the hole
+    return std::max({block, -slot, hole});
+  }
+  static TriangleMesh mesh() {
+    return mesh_implicit(sdf, AABB{Vec3(-0.42, -0.26, -0.26 + lift), Vec3(0.42, 0.26, 0.26 + lift)}, 168);
+  }
+  // A point on the slot's floor (what only a view into the slot measures).
+  static bool on_slot_floor(const Vec3& world) {
+    const Vec3 t = local(world);
+    const double e = 0.01;
+    return t.x() > slot_x0 + e && t.x() < slot_x1 - e && std::abs(t.y()) < slot_hy - e && t.z() < slot_floor + 0.03;
+  }
+  // A target on a surface across the hole (a phantom bridge): well inside the cylinder, within the block.
+  static bool on_hole_bridge(const Vec3& world) {
+    const Vec3 t = local(world);
+    return std::hypot(t.x() - hole_x, t.z() - hole_z) < 0.7 * hole_r && std::abs(t.y()) < hy + 0.02;
+  }
+};
+
+simulation::SimulateOptions first_round_options() {
+  simulation::SimulateOptions o;
+  o.normalize = false;
+  o.rig = simulation::rig_preset("turntable_arm");  // the bottom rests on the disc: no view chases it
+  o.scanner.width = 240;
+  o.scanner.height = 180;
+  o.session.poisson.depth = 7;
+  o.session.max_views = 10;
+  o.session.max_iterations = 2;  // iteration 0 plans the first round; iteration 1 stops
+  o.session.nbv.grid_resolution = 48;
+  o.session.confidence.iso.count = 4000;
+  o.eval.samples = 5000;
+  o.scannable_options.surface_views = 40;
+  o.scannable_options.sphere_views = 12;
+  o.scannable_options.resolution_divisor = 1;
+  o.report = false;
+  return o;
+}
+
+}  // namespace
+
+// Disabled: it states issue 23's target, which the planner meets only half. Measured (2026-12-02,
+// the block on the turntable, default blind scan): the slot part holds (views looking down at the
+// top face beside the slot measure its floor), but two of the ten views aim at the Poisson surface
+// that closes the hole 6 cm inside each mouth. The carving sees only rays that returned a point;
+// the rays that went through the hole returned nothing (docs/planners.md, phantom suppression).
+TEST(SlotAndHole, DISABLED_TheFirstRoundLooksIntoTheSlotAndNotAtTheHolesBridge) {
+  const TriangleMesh truth = SlotAndHole::mesh();
+  ASSERT_GT(truth.faces.size(), 1000u);
+  const fs::path dir = autoscan::testing::scratch_dir("sim_slot_hole", false);
+  simulation::simulate(truth, dir, first_round_options());
+  const auto views = nlohmann::json::parse(read_text_file(dir / "iterations" / "iter_000" / "views.json"));
+  ASSERT_TRUE(views.contains("views"));
+  ASSERT_FALSE(views["views"].empty()) << "no first round";
+  int at_bridge = 0;
+  for (const auto& v : views["views"]) {
+    const Vec3 t(v["target"][0].get<double>(), v["target"][1].get<double>(), v["target"][2].get<double>());
+    if (SlotAndHole::on_hole_bridge(t)) {
+      ++at_bridge;
+      ADD_FAILURE() << "a view aims at (" << t.transpose() << "), across the hole";
+    }
+  }
+  // Into the slot: the first round's scans (model_iteration 0) measure its floor.
+  const auto session = nlohmann::json::parse(read_text_file(dir / "session.json"));
+  std::size_t floor_blind = 0, floor_first = 0;
+  for (const auto& sc : session["scans"]) {
+    const int round = sc["model_iteration"].get<int>();
+    if (round > 0) continue;
+    const PointCloud pts = io::read_point_cloud(dir / sc["file"].get<std::string>());
+    std::size_t n = 0;
+    for (const auto& p : pts.positions) n += SlotAndHole::on_slot_floor(p) ? 1 : 0;
+    (round < 0 ? floor_blind : floor_first) += n;
+  }
+  EXPECT_GE(floor_first, 50u) << "the first round measured " << floor_first << " points of the slot's floor (blind "
+                              << floor_blind << ")";
+  EXPECT_EQ(at_bridge, 0);
+  fs::remove_all(dir);
+}
