@@ -174,6 +174,13 @@ TEST(Bench, GridExpandsAndCollectsTables) {
   EXPECT_EQ(simulation::job_commands(dir, "autoscan").size(), 4u);
   g.depth = 6;
   EXPECT_THROW(simulation::init_bench(dir, g), InputError);  // a different grid in the same directory
+  // Every run gets the whole budget: no stop rule ends it early.
+  const auto o = simulation::bench_run_options(g, jobs[1], dir);
+  EXPECT_EQ(o.session.max_views, 4);
+  EXPECT_EQ(o.session.stop.rule, session::StopRule::paper);
+  EXPECT_EQ(o.session.stop_threshold, 0.0);
+  EXPECT_FALSE(o.session.stop_when_confidence_falls);
+  EXPECT_EQ(o.checkpoints, g.views);
   const auto s = simulation::collect(dir);
   EXPECT_EQ(s["finished"].get<int>(), 0);
   EXPECT_TRUE(fs::exists(dir / "results.md"));

@@ -118,6 +118,31 @@ void init_bench(const fs::path& dir, const BenchGrid& g) {
   write_text_atomic(p, to_json(g).dump(2));
 }
 
+SimulateOptions bench_run_options(const BenchGrid& g, const BenchJob& job, const fs::path& dir) {
+  SimulateOptions o;
+  o.session.planner = job.planner;
+  o.session.seed = job.seed;
+  o.session.max_views = *std::max_element(g.views.begin(), g.views.end());
+  o.session.max_iterations = g.max_iterations;
+  // Every planner gets the whole view budget (the comparisons are at equal numbers of views, as in
+  // the paper's Figures 12-14): no stop rule ends a run early. The paper's rule with a threshold of 0
+  // never converges; the default rule "remaining" (issue 22) would stop runs "complete" or
+  // "no_improvement" at different budgets per planner. `simulate` keeps its rule.
+  o.session.stop.rule = session::StopRule::paper;
+  o.session.stop_threshold = 0.0;
+  o.session.stop_when_confidence_falls = false;
+  // Many runs: each reconstruction consolidates at most 100k points (the session default is 200k).
+  o.session.consolidate.thinning.max_points = 100000;
+  o.session.poisson.depth = g.depth;
+  o.scanner.noise.magnitude = job.noise;
+  o.checkpoints = g.views;
+  // The scannable reference depends only on the model (noise-free, same scanner and rig): one per
+  // model, shared by all its runs.
+  o.scannable_cache = dir / "scannable" / (fs::path(job.model).stem().string() + ".ply");
+  o.report = false;
+  return o;
+}
+
 json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
   const BenchGrid g = load_grid(dir);
   const auto jobs = expand_grid(g);
@@ -131,24 +156,7 @@ json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
     r = resume(run_dir, progress);
   } else {
     fs::remove_all(run_dir);
-    SimulateOptions o;
-    o.session.planner = job.planner;
-    o.session.seed = job.seed;
-    o.session.max_views = *std::max_element(g.views.begin(), g.views.end());
-    o.session.max_iterations = g.max_iterations;
-    // Every planner gets the whole view budget (the comparisons are at equal numbers of views, as
-    // in the paper's Figures 12-14): the confidence stop rule is off here; `simulate` keeps it.
-    o.session.stop_threshold = 0.0;
-    o.session.stop_when_confidence_falls = false;
-    // Many runs: each reconstruction consolidates at most 100k points (the session default is 200k).
-    o.session.consolidate.thinning.max_points = 100000;
-    o.session.poisson.depth = g.depth;
-    o.scanner.noise.magnitude = job.noise;
-    o.checkpoints = g.views;
-    // The scannable reference depends only on the model (noise-free, same scanner and rig): one per
-    // model, shared by all its runs.
-    o.scannable_cache = dir / "scannable" / (fs::path(job.model).stem().string() + ".ply");
-    o.report = false;
+    const SimulateOptions o = bench_run_options(g, job, dir);
     r = simulate(load_model(g, job.model), run_dir, o, progress);
   }
   json out = {{"job", job.index},   {"model", job.model}, {"planner", job.planner},

@@ -42,6 +42,9 @@ std::vector<BenchJob> expand_grid(const BenchGrid& g);
 /// Writes DIR/grid.json (or checks that an existing one is the same grid).
 void init_bench(const std::filesystem::path& dir, const BenchGrid& g);
 /// Runs job `index` of the grid in DIR (resuming a partial run); writes DIR/runs/NAME.result.json.
+/// The simulation options of one run of the grid in `dir`: the whole view budget (no stop rule ends
+/// it early), checkpoints at the grid's budgets, the shared scannable reference.
+SimulateOptions bench_run_options(const BenchGrid& g, const BenchJob& job, const std::filesystem::path& dir);
 nlohmann::json run_job(const std::filesystem::path& dir, int index, const ProgressCallback& progress = {});
 /// One shell command per unfinished job (`exe bench --out DIR --job I`).
 std::vector<std::string> job_commands(const std::filesystem::path& dir, const std::string& exe);
