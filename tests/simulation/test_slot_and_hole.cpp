@@ -82,17 +82,48 @@ simulation::SimulateOptions first_round_options() {
 
 }  // namespace
 
-// Disabled: it states issue 23's target, which the planner meets only half. Measured (2026-12-02,
-// the block on the turntable, default blind scan): the slot part holds (views looking down at the
-// top face beside the slot measure its floor), but two of the ten views aim at the Poisson surface
-// that closes the hole 6 cm inside each mouth. The carving sees only rays that returned a point;
-// the rays that went through the hole returned nothing (docs/planners.md, phantom suppression).
-TEST(SlotAndHole, DISABLED_TheFirstRoundLooksIntoTheSlotAndNotAtTheHolesBridge) {
-  const TriangleMesh truth = SlotAndHole::mesh();
-  ASSERT_GT(truth.faces.size(), 1000u);
-  const fs::path dir = autoscan::testing::scratch_dir("sim_slot_hole", false);
-  simulation::simulate(truth, dir, first_round_options());
-  const auto views = nlohmann::json::parse(read_text_file(dir / "iterations" / "iter_000" / "views.json"));
+// One simulation (blind scan, the first round of ten views, their scans) for both tests below.
+class SlotAndHoleRound : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(autoscan::testing::scratch_dir("sim_slot_hole", false));
+    const TriangleMesh truth = SlotAndHole::mesh();
+    ASSERT_GT(truth.faces.size(), 1000u);
+    simulation::simulate(truth, *dir_, first_round_options());
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static const fs::path& dir() { return *dir_; }
+  static fs::path* dir_;
+};
+fs::path* SlotAndHoleRound::dir_ = nullptr;
+
+// Into the slot: the first round's scans (model_iteration 0) measure its floor (views looking down
+// at the top face beside it).
+TEST_F(SlotAndHoleRound, TheFirstRoundMeasuresTheSlotsFloor) {
+  const auto session = nlohmann::json::parse(read_text_file(dir() / "session.json"));
+  std::size_t floor_blind = 0, floor_first = 0;
+  for (const auto& sc : session["scans"]) {
+    const int round = sc["model_iteration"].get<int>();
+    if (round > 0) continue;
+    const PointCloud pts = io::read_point_cloud(dir() / sc["file"].get<std::string>());
+    std::size_t n = 0;
+    for (const auto& p : pts.positions) n += SlotAndHole::on_slot_floor(p) ? 1 : 0;
+    (round < 0 ? floor_blind : floor_first) += n;
+  }
+  EXPECT_GE(floor_first, 50u) << "the first round measured " << floor_first << " points of the slot's floor (blind "
+                              << floor_blind << ")";
+}
+
+// Disabled: issue 23's target, not met yet. Measured (2026-12-02, the block on the turntable, default
+// blind scan): two of the ten views aim at the Poisson surface that closes the hole about 6 cm inside
+// each mouth. The carving sees only rays that returned a point; the rays that went through the hole
+// returned nothing (docs/planners.md, phantom suppression).
+TEST_F(SlotAndHoleRound, DISABLED_TheFirstRoundAimsNoViewAtTheHolesBridge) {
+  const auto views = nlohmann::json::parse(read_text_file(dir() / "iterations" / "iter_000" / "views.json"));
   ASSERT_TRUE(views.contains("views"));
   ASSERT_FALSE(views["views"].empty()) << "no first round";
   int at_bridge = 0;
@@ -103,19 +134,5 @@ TEST(SlotAndHole, DISABLED_TheFirstRoundLooksIntoTheSlotAndNotAtTheHolesBridge) 
       ADD_FAILURE() << "a view aims at (" << t.transpose() << "), across the hole";
     }
   }
-  // Into the slot: the first round's scans (model_iteration 0) measure its floor.
-  const auto session = nlohmann::json::parse(read_text_file(dir / "session.json"));
-  std::size_t floor_blind = 0, floor_first = 0;
-  for (const auto& sc : session["scans"]) {
-    const int round = sc["model_iteration"].get<int>();
-    if (round > 0) continue;
-    const PointCloud pts = io::read_point_cloud(dir / sc["file"].get<std::string>());
-    std::size_t n = 0;
-    for (const auto& p : pts.positions) n += SlotAndHole::on_slot_floor(p) ? 1 : 0;
-    (round < 0 ? floor_blind : floor_first) += n;
-  }
-  EXPECT_GE(floor_first, 50u) << "the first round measured " << floor_first << " points of the slot's floor (blind "
-                              << floor_blind << ")";
   EXPECT_EQ(at_bridge, 0);
-  fs::remove_all(dir);
 }
