@@ -8,7 +8,9 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/planners/baselines.hpp"
 #include "autoscan/planners/common.hpp"
+#include "autoscan/planners/miss_evidence.hpp"
 #include "autoscan/planners/sphere_planner.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::planners {
 
@@ -24,19 +26,32 @@ namespace {
 /// planner carves free space from every scan (an occupancy grid: voxels a scanner ray crossed at
 /// least `phantom_stop_cells` voxels before its point are free, voxels holding a point occupied) and
 /// treats iso-points in free voxels as confident (f = 1): a ray went through them, so no surface is
-/// there. Params: phantom_suppression (true), phantom_grid_resolution (128), phantom_stop_cells (2),
-/// max_rays_per_scan (30000).
+/// there. The scans' depth images count too (miss_evidence.hpp): an iso-point that
+/// `phantom_miss_scans` scans would have measured, had a surface been there, while their pixels there
+/// returned nothing or a point behind it, is a phantom as well (a bridge across a through-hole: the
+/// rays through the hole returned no point and those along its wall graze it, so the carving never
+/// reaches it). Needs the scanner's intrinsics
+/// (PlannerOptions::scanner); voxels holding a point are never phantoms.
+/// Params: phantom_suppression (true), phantom_grid_resolution (128), phantom_stop_cells (2),
+/// max_rays_per_scan (30000), phantom_miss_scans (1; 0 = off), phantom_miss_block_px (0 = width/640,
+/// at least 1), phantom_miss_margin_deg (15).
 struct PoissonPlannerParams {
   bool phantom_suppression = true;
   int phantom_grid_resolution = 128;
   double phantom_stop_cells = 2.0;
   int max_rays_per_scan = 30000;
+  int phantom_miss_scans = 1;
+  int phantom_miss_block_px = 0;
+  double phantom_miss_margin_deg = 15.0;
   template <class V>
   void visit_fields(V& v) {
     v("phantom_suppression", phantom_suppression);
     v("phantom_grid_resolution", phantom_grid_resolution, schema::closed(8, 512));
     v("phantom_stop_cells", phantom_stop_cells, schema::closed(0, 100));
     v("max_rays_per_scan", max_rays_per_scan, schema::closed(1, 100000000));
+    v("phantom_miss_scans", phantom_miss_scans, schema::closed(0, 1000));
+    v("phantom_miss_block_px", phantom_miss_block_px, schema::closed(0, 4096));
+    v("phantom_miss_margin_deg", phantom_miss_margin_deg, schema::closed(0, 90));
   }
 };
 
@@ -50,6 +65,9 @@ class PoissonPlanner final : public Planner {
     grid_resolution_ = p.phantom_grid_resolution;
     stop_cells_ = p.phantom_stop_cells;
     max_rays_ = p.max_rays_per_scan;
+    miss_scans_ = p.phantom_miss_scans;
+    miss_block_ = p.phantom_miss_block_px;
+    miss_options_.incidence_margin_deg = p.phantom_miss_margin_deg;
   }
   std::string name() const override { return "poisson"; }
 
@@ -72,6 +90,10 @@ class PoissonPlanner final : public Planner {
     if (!phantom_) return;
     rays_.add(scan, pose, static_cast<std::size_t>(max_rays_));
     if (!grid_.empty()) carve();
+    if (miss_scans_ > 0 && options_.scanner) {
+      const ScannerSpec& spec = *options_.scanner;
+      depth_.push_back(depth_blocks(scan, pose, spec, miss_block_ > 0 ? miss_block_ : default_block_px(spec)));
+    }
   }
 
   PlanOutput plan(const ModelState& state, const Pose& current, Rng& rng) override {
@@ -84,7 +106,8 @@ class PoissonPlanner final : public Planner {
     else
       nbv_->set_mesh(state.mesh);
     PointCloud iso = state.iso_points;
-    std::size_t phantoms = 0;
+    std::size_t phantoms = 0, miss_phantoms = 0;
+    std::vector<char> phantom(iso.size(), 0);
     if (phantom_) {
       if (grid_.empty()) {
         AABB box = state.acquired_bounds;
@@ -94,14 +117,30 @@ class PoissonPlanner final : public Planner {
       }
       carve();
       auto f = iso.scalars.get("f");
+      std::vector<char> open(iso.size(), 0);  // neither measured nor carved: the empty pixels may tell
       for (std::size_t i = 0; i < iso.size(); ++i) {
         const long long idx = grid_.index_of(iso.positions[i]);
-        if (idx >= 0 && grid_.at(static_cast<std::size_t>(idx)) == OccupancyGrid::free && f[i] < 1.0) {
+        const auto cell = idx >= 0 ? grid_.at(static_cast<std::size_t>(idx)) : OccupancyGrid::unknown;
+        if (cell == OccupancyGrid::free && f[i] < 1.0) {
           f[i] = 1.0;
+          phantom[i] = 1;
           ++phantoms;
         }
+        open[i] = cell == OccupancyGrid::unknown && f[i] < 1.0 ? 1 : 0;
+      }
+      if (miss_scans_ > 0 && !depth_.empty()) {
+        const std::vector<char> was_open = open;
+        miss_phantoms = find_miss_phantoms(state, iso, open, f);
+        for (std::size_t i = 0; i < iso.size(); ++i) phantom[i] = phantom[i] || (was_open[i] && !open[i]);
       }
       iso.scalars.set("f", std::move(f));
+      // A phantom is not there: no view aims at it (Eq. 5's target), and it is not the confident
+      // surface Eq. 5's η looks for; the planner does not see it at all.
+      std::vector<std::size_t> keep;
+      keep.reserve(iso.size());
+      for (std::size_t i = 0; i < iso.size(); ++i)
+        if (!phantom[i]) keep.push_back(i);
+      if (!keep.empty()) iso.select(keep);  // all phantoms: left as they are, confident (f = 1)
     }
     auto result = std::make_shared<nbv::PlanResult>(nbv_->plan(iso, current, state.field.get(), options_.progress));
     PlanOutput out;
@@ -109,7 +148,8 @@ class PoissonPlanner final : public Planner {
     for (const auto& v : result->views) out.views.push_back({v.pose, v.score, v.target});
     out.path_length = result->path_length;
     out.diagnostics = nbv::diagnostics_to_json(result->diagnostics);
-    out.diagnostics["phantom_iso_points"] = phantoms;
+    out.diagnostics["phantom_iso_points"] = phantoms + miss_phantoms;
+    out.diagnostics["phantom_iso_points_seen_through"] = miss_phantoms;
     const Vec3 center = state.acquired_bounds.empty() ? state.mesh.bounds().center() : state.acquired_bounds.center();
     out.write_artifacts = [result, center](const std::filesystem::path& dir) {
       nbv::write_slice_png(dir / "field_slice.png", result->field, center, result->views);
@@ -119,6 +159,38 @@ class PoissonPlanner final : public Planner {
 
  private:
   void carve() { rays_.integrate_into(grid_, stop_cells_ * grid_.cell()); }
+
+  // Iso-points the depth images show to be phantoms (miss_evidence.hpp) get f = 1; `open` marks the
+  // candidates (cleared for each find). A phantom can hide another one (a surface plugging a hole
+  // is seen edge-on from outside its mouth), so each pass sees through the model where its nearest
+  // iso-point is a phantom already (carved or found), until a pass finds nothing new (at most kPasses).
+  std::size_t find_miss_phantoms(const ModelState& state, const PointCloud& iso, std::vector<char>& open,
+                                 std::vector<double>& f) const {
+    constexpr int kPasses = 4;
+    std::vector<char> phantom(iso.size(), 0);
+    for (std::size_t i = 0; i < iso.size(); ++i) {
+      const long long idx = grid_.index_of(iso.positions[i]);
+      phantom[i] = idx >= 0 && grid_.at(static_cast<std::size_t>(idx)) == OccupancyGrid::free ? 1 : 0;
+    }
+    const spatial::KdTree tree(std::span<const Vec3>(iso.positions));
+    const auto transparent = [&](const Vec3& p) { return phantom[tree.nearest(p)] != 0; };
+    std::size_t found = 0;
+    for (int pass = 0; pass < kPasses; ++pass) {
+      const auto evidence =
+          miss_evidence(iso, open, depth_, state.scanner, state.mesh, state.rig, miss_options_, transparent);
+      std::size_t now = 0;
+      for (std::size_t i = 0; i < iso.size(); ++i) {
+        if (!open[i] || evidence[i] < miss_scans_) continue;
+        f[i] = 1.0;
+        open[i] = 0;
+        phantom[i] = 1;
+        ++now;
+      }
+      found += now;
+      if (now == 0) break;
+    }
+    return found;
+  }
   PlannerOptions options_;
   std::unique_ptr<nbv::NbvPlanner> nbv_;
   bool phantom_ = true;
@@ -127,6 +199,10 @@ class PoissonPlanner final : public Planner {
   int max_rays_ = 30000;
   OccupancyGrid grid_;
   RayBuffer rays_;
+  int miss_scans_ = 1;
+  int miss_block_ = 0;
+  MissEvidenceOptions miss_options_;
+  std::vector<DepthBlocks> depth_;  ///< one per observed scan (needs options_.scanner)
 };
 
 struct Registry {

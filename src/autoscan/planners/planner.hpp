@@ -78,6 +78,10 @@ struct PlannerOptions {
   nbv::NbvOptions nbv;  ///< §5.1-5.2 (Eq. 4, Eq. 5), the views per iteration, path optimisation
   nlohmann::json params = nlohmann::json::object();
   ProgressCallback progress;  ///< stage progress/cancel for long planners
+  /// The scanner the views are for, when the caller knows it (a session does): planners that read a
+  /// scan's image (poisson's phantom evidence from empty pixels, miss_evidence.hpp) need its
+  /// intrinsics; nullopt turns that reasoning off.
+  std::optional<ScannerSpec> scanner;
 };
 
 class Planner {

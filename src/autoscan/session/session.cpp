@@ -666,6 +666,7 @@ struct Session::Impl {
     planners::PlannerOptions po;
     po.nbv = options.nbv;
     po.params = options.planner_params;
+    po.scanner = scanner;
     // Forward to the session's current callback (set_progress may change it later).
     po.progress = [this](std::string_view stage, double f) { return progress ? progress(stage, f) : true; };
     planner = planners::make_planner(options.planner, po);

@@ -311,6 +311,7 @@ class Collector {
   void write_header();
   void section(const std::string& m, double n);
   void accuracy_table(const std::string& m, double n);
+  void views_table(const std::string& m, double n);
   void iteration_figures(const std::string& m, double n, const std::string& ms, const std::string& base);
   void noise_figure(const std::string& m);
 
@@ -407,6 +408,7 @@ void Collector::section(const std::string& m, double n) {
     md_ << "\n";
   }
   accuracy_table(m, n);
+  views_table(m, n);
   const std::string base = fmt::format("{}_n{}", ms, n);
   const std::vector<double> xs(g_.views.begin(), g_.views.end());
   write_text_atomic(
@@ -446,6 +448,78 @@ void Collector::accuracy_table(const std::string& m, double n) {
       md_ << (std::isfinite(a) ? fmt::format(" {:.2f} |", 1e4 * a) : std::string(" – |"));
     }
     md_ << "\n";
+  }
+  md_ << "\n";
+}
+
+namespace {
+
+/// Mean ± standard deviation (over seeds) of the finite values, "–" when none.
+std::string mean_sd(const std::vector<double>& v, int digits) {
+  std::vector<double> x;
+  for (double a : v)
+    if (std::isfinite(a)) x.push_back(a);
+  if (x.empty()) return "–";
+  const double m = mean_of(x);
+  double ss = 0.0;
+  for (double a : x) ss += (a - m) * (a - m);
+  const double sd = x.size() > 1 ? std::sqrt(ss / static_cast<double>(x.size() - 1)) : 0.0;
+  return fmt::format("{:.{}f} ± {:.{}f}", m, digits, sd, digits);
+}
+
+}  // namespace
+
+// Issue 23: the spread over seeds of the scannable coverage at each budget, the next-best views a run
+// needed until its model's scans covered 95 % and 99 % of the scannable surface (read from each
+// iteration's truth in session.json: views = scans − the blind scans; "> B" when a seed never got
+// there within the budget, with how many seeds did), and the path the scanner travelled (the
+// planners' path lengths of the rounds that were scanned, Rig::travel_cost).
+void Collector::views_table(const std::string& m, double n) {
+  const int vmax = *std::max_element(g_.views.begin(), g_.views.end());
+  md_ << "Scannable coverage (mean ± standard deviation over seeds), next-best views to 95 % and 99 % of the "
+         "scannable surface (mean over the seeds that got there), path length (rig travel cost):\n\n| planner |";
+  for (int v : g_.views) md_ << " " << v << " views |";
+  md_ << " views to 95 % | views to 99 % | path length |\n|---|";
+  for (std::size_t i = 0; i < g_.views.size() + 3; ++i) md_ << "---|";
+  md_ << "\n";
+  for (const auto& p : g_.planners) {
+    md_ << "| " << p << " |";
+    for (int v : g_.views) {
+      auto it = agg_.find({m, n, p, v});
+      md_ << " " << (it == agg_.end() ? std::string("–") : mean_sd(it->second["coverage_scannable"], 3)) << " |";
+    }
+    std::vector<double> to95, to99, path;
+    int runs = 0;
+    for (const auto& j : jobs_) {
+      if (j.model != m || j.noise != n || j.planner != p || !finished(dir_, j)) continue;
+      const fs::path sp = SessionLayout(dir_ / "runs" / j.name).session_json();
+      std::error_code ec;
+      if (!fs::exists(sp, ec)) continue;
+      const json sj = json::parse(read_text_file(sp), nullptr, false);
+      if (sj.is_discarded()) continue;
+      ++runs;
+      const json its = sj.value("iterations", json::array());
+      if (its.empty()) continue;
+      const int blind = its[0].value("scans", 0);
+      double len = 0.0;
+      bool got95 = false, got99 = false;
+      for (std::size_t k = 0; k < its.size(); ++k) {
+        const json t = its[k].value("truth", json());
+        const double c = t.is_object() ? t.value("coverage_scannable", std::nan("")) : std::nan("");
+        const double views = its[k].value("scans", 0) - blind;
+        if (!got95 && c >= 0.95) to95.push_back(views), got95 = true;
+        if (!got99 && c >= 0.99) to99.push_back(views), got99 = true;
+        if (k + 1 < its.size()) len += its[k].value("path_length", 0.0);
+      }
+      path.push_back(len);
+    }
+    auto reached = [&](const std::vector<double>& v) {
+      if (runs == 0) return std::string("–");
+      if (static_cast<int>(v.size()) == runs) return fmt::format("{:.1f}", mean_of(v));
+      if (v.empty()) return fmt::format("> {}", vmax);
+      return fmt::format("{:.1f} ({} of {}; others > {})", mean_of(v), v.size(), runs, vmax);
+    };
+    md_ << " " << reached(to95) << " | " << reached(to99) << " | " << mean_sd(path, 2) << " |\n";
   }
   md_ << "\n";
 }
