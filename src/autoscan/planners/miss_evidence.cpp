@@ -83,14 +83,25 @@ std::vector<int> miss_evidence(const PointCloud& points, const std::vector<char>
                                const std::vector<DepthBlocks>& scans, const ScannerSpec& spec,
                                const TriangleMesh& model, const Rig& rig, const MissEvidenceOptions& options,
                                const std::function<bool(const Vec3&)>& transparent) {
+  AUTOSCAN_REQUIRE(candidate.size() == points.size(), "miss_evidence: {} candidate flags for {} points",
+                   candidate.size(), points.size());
+  if (scans.empty() || model.empty() || std::none_of(candidate.begin(), candidate.end(), [](char c) { return c; }))
+    return std::vector<int>(points.size(), 0);
+  return miss_evidence(points, candidate, scans, spec, spatial::RayScene(model), rig, options, transparent);
+}
+
+std::vector<int> miss_evidence(const PointCloud& points, const std::vector<char>& candidate,
+                               const std::vector<DepthBlocks>& scans, const ScannerSpec& spec,
+                               const spatial::RayScene& scene, const Rig& rig, const MissEvidenceOptions& options,
+                               const std::function<bool(const Vec3&)>& transparent) {
   const std::size_t n = points.size();
   AUTOSCAN_REQUIRE(candidate.size() == n, "miss_evidence: {} candidate flags for {} points", candidate.size(), n);
   AUTOSCAN_REQUIRE(points.has_normals(), "miss_evidence: the points need normals");
   std::vector<int> evidence(n, 0);
-  if (scans.empty() || model.empty() || std::none_of(candidate.begin(), candidate.end(), [](char c) { return c; }))
+  if (scans.empty() || scene.triangle_count() == 0 ||
+      std::none_of(candidate.begin(), candidate.end(), [](char c) { return c; }))
     return evidence;
-  const spatial::RayScene scene(model);
-  const double diag = std::max(model.bounds().diagonal(), 1e-9);
+  const double diag = std::max(scene.bounds().diagonal(), 1e-9);
   const double eps = 0.005 * diag;  // s's own patch does not occlude it
   const double margin = options.depth_margin * diag;
   const double cos_ok = std::cos(std::max(0.0, spec.max_incidence_deg - options.incidence_margin_deg) * kDegToRad);
@@ -121,9 +132,9 @@ std::vector<int> miss_evidence(const PointCloud& points, const std::vector<char>
     if (!candidate[k]) return;
     const Vec3& s = points.positions[k];
     const Vec3& nrm = points.normals[k];
-    if (support && s.z() <= *support + 0.01 * std::max(model.bounds().diagonal(), 1e-9)) return;
+    if (support && s.z() <= *support + 0.01 * diag) return;
     int count = 0;
-    for (std::size_t j = 0; j < scans.size(); ++j) {
+    for (std::size_t j = 0; j < scans.size() && (options.stop_at <= 0 || count < options.stop_at); ++j) {
       const DepthBlocks& sc = scans[j];
       const Vec3& c = sc.pose.position;
       const Vec3 d = rot[j].transpose() * (s - c);

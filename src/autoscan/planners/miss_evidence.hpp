@@ -23,6 +23,7 @@
 #include "autoscan/core/pose.hpp"
 #include "autoscan/core/rig.hpp"
 #include "autoscan/core/scanner_spec.hpp"
+#include "autoscan/spatial/ray_scene.hpp"
 
 namespace autoscan::planners {
 
@@ -49,6 +50,9 @@ struct MissEvidenceOptions {
   double incidence_margin_deg = 15.0;
   /// A pixel's return must lie this far behind s (× the model's bounding-box diagonal) to count.
   double depth_margin = 0.01;
+  /// Stop counting a point's evidence at this many scans (0: count every scan). The planner needs
+  /// only to know whether `phantom_miss_scans` is reached.
+  int stop_at = 0;
 };
 
 /// For each point s_k (positions, outward unit `normals`) of `points`: how many of `scans` would have
@@ -62,6 +66,11 @@ struct MissEvidenceOptions {
 std::vector<int> miss_evidence(const PointCloud& points, const std::vector<char>& candidate,
                                const std::vector<DepthBlocks>& scans, const ScannerSpec& spec,
                                const TriangleMesh& model, const Rig& rig, const MissEvidenceOptions& options = {},
+                               const std::function<bool(const Vec3&)>& transparent = {});
+/// The same with the model's ray scene built by the caller (once for several calls).
+std::vector<int> miss_evidence(const PointCloud& points, const std::vector<char>& candidate,
+                               const std::vector<DepthBlocks>& scans, const ScannerSpec& spec,
+                               const spatial::RayScene& scene, const Rig& rig, const MissEvidenceOptions& options = {},
                                const std::function<bool(const Vec3&)>& transparent = {});
 
 }  // namespace autoscan::planners

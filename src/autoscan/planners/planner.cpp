@@ -68,6 +68,7 @@ class PoissonPlanner final : public Planner {
     miss_scans_ = p.phantom_miss_scans;
     miss_block_ = p.phantom_miss_block_px;
     miss_options_.incidence_margin_deg = p.phantom_miss_margin_deg;
+    miss_options_.stop_at = p.phantom_miss_scans;
   }
   std::string name() const override { return "poisson"; }
 
@@ -167,6 +168,7 @@ class PoissonPlanner final : public Planner {
   std::size_t find_miss_phantoms(const ModelState& state, const PointCloud& iso, std::vector<char>& open,
                                  std::vector<double>& f) const {
     constexpr int kPasses = 4;
+    if (std::none_of(open.begin(), open.end(), [](char c) { return c != 0; })) return 0;
     std::vector<char> phantom(iso.size(), 0);
     for (std::size_t i = 0; i < iso.size(); ++i) {
       const long long idx = grid_.index_of(iso.positions[i]);
@@ -175,9 +177,10 @@ class PoissonPlanner final : public Planner {
     const spatial::KdTree tree(std::span<const Vec3>(iso.positions));
     const auto transparent = [&](const Vec3& p) { return phantom[tree.nearest(p)] != 0; };
     std::size_t found = 0;
+    const spatial::RayScene scene(state.mesh);
     for (int pass = 0; pass < kPasses; ++pass) {
       const auto evidence =
-          miss_evidence(iso, open, depth_, state.scanner, state.mesh, state.rig, miss_options_, transparent);
+          miss_evidence(iso, open, depth_, state.scanner, scene, state.rig, miss_options_, transparent);
       std::size_t now = 0;
       for (std::size_t i = 0; i < iso.size(); ++i) {
         if (!open[i] || evidence[i] < miss_scans_) continue;
