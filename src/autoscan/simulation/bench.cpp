@@ -471,9 +471,9 @@ std::string mean_sd(const std::vector<double>& v, int digits) {
 
 // Issue 23: the spread over seeds of the scannable coverage at each budget, the next-best views a run
 // needed until its model's scans covered 95 % and 99 % of the scannable surface (read from each
-// iteration's truth in session.json: views = scans − the blind scans; "> B" when a seed never got
-// there within the budget, with how many seeds did), and the path the scanner travelled (the
-// planners' path lengths of the rounds that were scanned, Rig::travel_cost).
+// iteration's truth in session.json: views = the scans of the iterations so far − the blind scans; "> B" when a seed
+// never got there within the budget, with how many seeds did), and the path the scanner travelled (the planners' path
+// lengths of the rounds that were scanned, Rig::travel_cost).
 void Collector::views_table(const std::string& m, double n) {
   const int vmax = *std::max_element(g_.views.begin(), g_.views.end());
   md_ << "Scannable coverage (mean ± standard deviation over seeds), next-best views to 95 % and 99 % of the "
@@ -500,13 +500,20 @@ void Collector::views_table(const std::string& m, double n) {
       ++runs;
       const json its = sj.value("iterations", json::array());
       if (its.empty()) continue;
-      const int blind = its[0].value("scans", 0);
+      // Each iteration lists the scans it added (indices); the first one's are the blind scans.
+      auto added = [](const json& it) {
+        const json sc = it.value("scans", json::array());
+        return sc.is_array() ? static_cast<double>(sc.size()) : 0.0;
+      };
+      const double blind = added(its[0]);
+      double total = 0.0;
       double len = 0.0;
       bool got95 = false, got99 = false;
       for (std::size_t k = 0; k < its.size(); ++k) {
         const json t = its[k].value("truth", json());
         const double c = t.is_object() ? t.value("coverage_scannable", std::nan("")) : std::nan("");
-        const double views = its[k].value("scans", 0) - blind;
+        total += added(its[k]);
+        const double views = total - blind;
         if (!got95 && c >= 0.95) to95.push_back(views), got95 = true;
         if (!got99 && c >= 0.99) to99.push_back(views), got99 = true;
         if (k + 1 < its.size()) len += its[k].value("path_length", 0.0);
