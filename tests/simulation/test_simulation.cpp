@@ -184,6 +184,27 @@ TEST(Bench, GridExpandsAndCollectsTables) {
   const auto s = simulation::collect(dir);
   EXPECT_EQ(s["finished"].get<int>(), 0);
   EXPECT_TRUE(fs::exists(dir / "results.md"));
+
+  // One finished run (written by hand: its checkpoints, and the session's iterations with the scans
+  // each added and the truth): the tables give its scannable coverage per budget, the views to 95 %
+  // and 99 % (2 and 4: the blind scans do not count) and the path length of the scanned rounds.
+  const fs::path run = dir / "runs" / jobs[0].name;
+  fs::create_directories(run);
+  const nlohmann::json cps =
+      nlohmann::json::array({{{"views", 2}, {"coverage_scannable", 0.96}, {"coverage", 0.95}, {"fscore", 0.9}},
+                             {{"views", 4}, {"coverage_scannable", 0.995}, {"coverage", 0.99}, {"fscore", 0.95}}});
+  write_text_atomic(dir / "runs" / (jobs[0].name + ".result.json"),
+                    nlohmann::json{{"job", 0}, {"result", {{"checkpoints", cps}}}}.dump());
+  const nlohmann::json its =
+      nlohmann::json::array({{{"scans", {0, 1, 2, 3}}, {"truth", {{"coverage_scannable", 0.90}}}, {"path_length", 1.0}},
+                             {{"scans", {4, 5}}, {"truth", {{"coverage_scannable", 0.96}}}, {"path_length", 2.0}},
+                             {{"scans", {6, 7}}, {"truth", {{"coverage_scannable", 0.995}}}, {"path_length", 5.0}}});
+  write_text_atomic(run / "session.json", nlohmann::json{{"iterations", its}}.dump());
+  const auto s1 = simulation::collect(dir);
+  EXPECT_EQ(s1["finished"].get<int>(), 1);
+  const std::string md = read_text_file(dir / "results.md");
+  EXPECT_NE(md.find("| poisson | 0.960 ± 0.000 | 0.995 ± 0.000 | 2.0 | 4.0 | 3.00 ± 0.00 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| random | – | – | – | – | – |"), std::string::npos) << md;
   fs::remove_all(dir);
 }
 
