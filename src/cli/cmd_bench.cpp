@@ -18,6 +18,7 @@ struct BenchCli {
   int jobs = 1, depth = 7;
   std::optional<int> job;  // not given: the whole grid
   bool emit_jobs = false;
+  bool keep_runs = false;
 };
 
 template <typename T>
@@ -74,6 +75,8 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
   sub->add_option("--job", o->job, "Run only job number I of the grid in --out (what --emit-jobs prints)");
   sub->add_option("--collect", o->collect, "Merge the results in DIR into tables and plots");
   sub->add_option("--results-md", o->results_md, "With --collect or a full run: also write the Markdown here");
+  sub->add_flag("--keep-runs", o->keep_runs,
+                "Keep each finished run's scans/ and iterations/ (about 0.7 GB per 40-view run; pruned by default)");
   g.on_run(sub, [o, &g] {
     using namespace autoscan::simulation;
     if (!o->collect.empty()) {
@@ -104,7 +107,7 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
       for (const auto& c : job_commands(o->out, self_exe())) fmt::print("{}\n", c);
       return;
     }
-    const int failed = run_bench(o->out, self_exe(), o->jobs);
+    const int failed = run_bench(o->out, self_exe(), o->jobs, o->keep_runs);
     const auto s = collect(o->out, o->results_md);
     g.emit({{"failed", failed}, {"collect", s}});
     if (!g.json)

@@ -205,6 +205,19 @@ TEST(Bench, GridExpandsAndCollectsTables) {
   const std::string md = read_text_file(dir / "results.md");
   EXPECT_NE(md.find("| poisson | 0.960 ± 0.000 | 0.995 ± 0.000 | 2.0 | 4.0 | 3.00 ± 0.00 |"), std::string::npos) << md;
   EXPECT_NE(md.find("| random | – | – | – | – | – |"), std::string::npos) << md;
+
+  // Pruning a finished run frees its scans and iterations and keeps what the collector reads.
+  fs::create_directories(run / "scans");
+  fs::create_directories(run / "iterations" / "iter_000");
+  write_text_atomic(run / "scans" / "scan_0000.ply", std::string(1000, 'x'));
+  write_text_atomic(run / "iterations" / "iter_000" / "mesh.ply", std::string(500, 'x'));
+  EXPECT_EQ(simulation::prune_run(run), 1500u);
+  EXPECT_FALSE(fs::exists(run / "scans"));
+  EXPECT_FALSE(fs::exists(run / "iterations"));
+  EXPECT_TRUE(fs::exists(run / "session.json"));
+  EXPECT_EQ(simulation::prune_run(run), 0u);  // nothing left to free
+  EXPECT_EQ(simulation::collect(dir)["finished"].get<int>(), 1);
+  EXPECT_EQ(read_text_file(dir / "results.md"), md);
   fs::remove_all(dir);
 }
 

@@ -173,7 +173,21 @@ std::vector<std::string> job_commands(const fs::path& dir, const std::string& ex
   return cmds;
 }
 
-int run_bench(const fs::path& dir, const std::string& exe, int jobs) {
+std::uintmax_t prune_run(const fs::path& run_dir) {
+  std::uintmax_t freed = 0;
+  for (const char* sub : {"scans", "iterations"}) {
+    const fs::path p = run_dir / sub;
+    std::error_code ec;
+    if (!fs::is_directory(p, ec)) continue;
+    for (const auto& e : fs::recursive_directory_iterator(p, ec))
+      if (e.is_regular_file(ec)) freed += e.file_size(ec);
+    fs::remove_all(p, ec);
+    if (ec) log::warn("bench: could not remove {}: {}", p.string(), ec.message());
+  }
+  return freed;
+}
+
+int run_bench(const fs::path& dir, const std::string& exe, int jobs, bool keep_runs) {
   AUTOSCAN_REQUIRE(jobs >= 1, "bench: --jobs must be >= 1");
   const BenchGrid g = load_grid(dir);
   std::vector<BenchJob> todo;
@@ -205,6 +219,7 @@ int run_bench(const fs::path& dir, const std::string& exe, int jobs) {
     ++done;
     const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
     if (!ok) ++failed;
+    if (ok && !keep_runs && finished(dir, it->second)) prune_run(dir / "runs" / it->second.name);
     log::info("bench: [{}/{}] {} {} ({:.0f} s elapsed)", done, todo.size(), it->second.name, ok ? "done" : "FAILED",
               clock.seconds());
     running.erase(it);

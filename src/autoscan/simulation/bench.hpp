@@ -49,7 +49,14 @@ nlohmann::json run_job(const std::filesystem::path& dir, int index, const Progre
 /// One shell command per unfinished job (`exe bench --out DIR --job I`).
 std::vector<std::string> job_commands(const std::filesystem::path& dir, const std::string& exe);
 /// Runs every unfinished job with `jobs` processes of `exe` at a time. Returns the number that failed.
-int run_bench(const std::filesystem::path& dir, const std::string& exe, int jobs);
+/// Unless `keep_runs`, each run that finished is pruned (prune_run) as soon as it ends.
+int run_bench(const std::filesystem::path& dir, const std::string& exe, int jobs, bool keep_runs = false);
+/// Frees the disk of a finished run directory DIR/runs/NAME: removes its scans/ and iterations/ (a
+/// 40-view run keeps about 0.7 GB there; a 3-seed grid of the seven planners would need over 100 GB)
+/// and keeps what the collector reads (session.json, simulation.json, checkpoints.json) and the final
+/// model. The run can no longer be resumed or reopened as a session (its result is final). Returns
+/// the bytes freed.
+std::uintmax_t prune_run(const std::filesystem::path& run_dir);
 /// Merges the results in DIR into DIR/results.{csv,json,md} and DIR/plots/*.svg. If `markdown_out`
 /// is not empty, also writes the Markdown there (e.g. docs/results.md) with plot links relative to it.
 nlohmann::json collect(const std::filesystem::path& dir, const std::filesystem::path& markdown_out = {});
