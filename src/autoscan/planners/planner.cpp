@@ -30,8 +30,8 @@ namespace {
 /// `phantom_miss_scans` scans would have measured, had a surface been there, while their pixels there
 /// returned nothing or a point behind it, is a phantom as well (a bridge across a through-hole: the
 /// rays through the hole returned no point and those along its wall graze it, so the carving never
-/// reaches it). Needs the scanner's intrinsics
-/// (PlannerOptions::scanner); voxels holding a point are never phantoms.
+/// reaches it). Needs the scanner's intrinsics (PlannerOptions::scanner); voxels holding a point are
+/// never phantoms. Every phantom is left out of the iso-points the nbv module plans with.
 /// Params: phantom_suppression (true), phantom_grid_resolution (128), phantom_stop_cells (2),
 /// max_rays_per_scan (30000), phantom_miss_scans (1; 0 = off), phantom_miss_block_px (0 = width/640,
 /// at least 1), phantom_miss_margin_deg (15).
