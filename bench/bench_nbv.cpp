@@ -138,11 +138,13 @@ void BM_FieldFast_100(benchmark::State& s) {
   run_field(s, big_input(), 100, nbv::FieldMethod::fast, static_cast<int>(s.range(0)), static_cast<int>(s.range(1)));
 }
 
-// state.range(0): NbvOptions::aim_targets (0 = Eq. 5 over every target in Upsilon_k, the paper's).
+// state.range(0): NbvOptions::aim_targets (0 = Eq. 5 over every target in Upsilon_k, the paper's);
+// state.range(1): NbvOptions::candidate_pool (the joint selection's candidates).
 void BM_Plan_100(benchmark::State& state) {
   const Input& in = big_input();
   nbv::NbvOptions o;
   o.aim_targets = static_cast<int>(state.range(0));
+  o.candidate_pool = static_cast<int>(state.range(1));
   nbv::NbvPlanner planner(in.mesh, ScannerSpec{}, Rig{}, o);
   const Pose from = Pose::look_at(Vec3(2, 0, 0.5), Vec3::Zero());
   nbv::PlanResult r;
@@ -217,7 +219,7 @@ void BM_MissEvidence_100(benchmark::State& state) {
 BENCHMARK(BM_FieldReference)->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK(BM_FieldFast)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FieldFast_100)->Unit(benchmark::kMillisecond)->Iterations(3)->Args({32, 4});
-BENCHMARK(BM_Plan_100)->Unit(benchmark::kMillisecond)->Iterations(3)->Arg(96)->Arg(0);
+BENCHMARK(BM_Plan_100)->Unit(benchmark::kMillisecond)->Iterations(3)->Args({96, 64})->Args({96, 256})->Args({0, 64});
 BENCHMARK(BM_MissEvidence_100)->Unit(benchmark::kMillisecond)->Iterations(3)->Arg(1)->Arg(0);
 
 }  // namespace

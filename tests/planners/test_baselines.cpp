@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "autoscan/core/error.hpp"
+#include "autoscan/planners/common.hpp"
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/planners/pvs_planner.hpp"
 #include "autoscan/planners/sphere_planner.hpp"
@@ -362,4 +363,57 @@ TEST(PlannerState, ARestoredPlannerPlansAsTheUninterruptedOne) {
   EXPECT_TRUE(random->saved_state().is_null());
   EXPECT_NO_THROW(random->restore_state(nullptr, "planner_state"));
   EXPECT_THROW(random->restore_state({{"grid", 1}}, "planner_state"), InputError);
+}
+
+TEST(Frontier, ViewsAimAtTheEdgeOfWhatWasMeasured) {
+  // The cap above z = 0.15 was never measured; its iso-points are Poisson's closing of the sphere.
+  // With the frontier on (NbvOptions::frontier_range, the scene presets' setting), iso-points farther
+  // than r from every raw point draw no views: every view aims within r (plus Eq. 5's reach around
+  // its seed) of a measured point, at the rim, not at the cap's middle 0.3 away.
+  const SceneFixture& fx = fixture(true);
+  ModelState st = fx.state;
+  const double r = 0.05;
+  PlannerOptions o = small_options();
+  o.nbv.frontier_range = r / st.scanner.far;
+  o.nbv.upsilon_radius_factor = 0.03;  // Eq. 5's targets within 0.048 of the seed
+  auto nearest_raw = [&](const Vec3& p) {
+    double best = 1e9;
+    for (const auto& q : st.raw.positions) best = std::min(best, (q - p).norm());
+    return best;
+  };
+  // The oracle: brute-force distances.
+  const auto beyond = detail::beyond_frontier(st, st.iso_points.positions, o.nbv.frontier_range);
+  std::size_t far_points = 0;
+  for (std::size_t i = 0; i < st.iso_points.size(); ++i) {
+    const bool far = nearest_raw(st.iso_points.positions[i]) > r;
+    EXPECT_EQ(beyond[i] != 0, far) << i;
+    far_points += far ? 1 : 0;
+  }
+  ASSERT_GT(far_points, 20u) << "the test needs iso-points beyond the frontier";
+  // As after a scan: the measured surface is confident, Poisson's closing of the cap is not.
+  std::vector<double> f(st.iso_points.size());
+  for (std::size_t i = 0; i < f.size(); ++i) f[i] = nearest_raw(st.iso_points.positions[i]) > 0.02 ? 0.05 : 0.95;
+  st.iso_points.scalars.set("f", f);
+  const auto off = detail::beyond_frontier(st, st.iso_points.positions, 0.0);
+  EXPECT_EQ(std::count(off.begin(), off.end(), 1), 0);  // off: none flagged
+  for (const std::string name : {"poisson", "density"}) {
+    const auto out = run(name, fx, 1, &st, o);
+    ASSERT_FALSE(out.views.empty()) << name << ": " << out.diagnostics.dump();
+    // (poisson: a far iso-point the carving already found a phantom is not counted twice)
+    const auto counted = out.diagnostics.value("iso_points_beyond_frontier", std::size_t{0});
+    EXPECT_GT(counted, far_points / 2) << name;
+    EXPECT_LE(counted, far_points) << name;
+    if (name == "density") {
+      EXPECT_EQ(counted, far_points);
+    }
+    for (const auto& v : out.views)
+      EXPECT_LT(nearest_raw(v.target), r + 0.048 + 1e-6) << name << ": " << v.target.transpose();
+    PlannerOptions without = o;
+    without.nbv.frontier_range = 0.0;
+    const auto plain = run(name, fx, 1, &st, without);
+    EXPECT_FALSE(plain.diagnostics.contains("iso_points_beyond_frontier")) << name;
+    double farthest = 0.0;  // without the frontier the views go into the cap
+    for (const auto& v : plain.views) farthest = std::max(farthest, nearest_raw(v.target));
+    EXPECT_GT(farthest, r + 0.048) << name;
+  }
 }

@@ -102,6 +102,11 @@ struct NbvOptions {
   /// a pass over the iso-points in the view's reach; targets a few spacings apart aim the frustum
   /// alike (docs/planners.md, "Plan time").
   int aim_targets = 96;
+  /// The frontier (scenes, issue 18; docs/planners.md "The frontier"): iso-points farther than this
+  /// times d_f from every measured point draw no views (f := 1); 0 = off (the paper: every iso-point
+  /// counts). Read by the planners (planners/), which hold the measured points; the scene presets
+  /// turn it on.
+  double frontier_range = 0.0;
 
   template <class V>
   void visit_fields(V& v) {
@@ -130,6 +135,7 @@ struct NbvOptions {
     v("region_samples", region_samples, schema::at_least(1));
     v("region_positions", region_positions, schema::at_least(1));
     v("aim_targets", aim_targets, schema::at_least(0));
+    v("frontier_range", frontier_range, schema::at_least(0));
   }
   /// Throws InputError naming the option for values out of range.
   void validate(const std::string& what = "nbv") const;

@@ -1,8 +1,11 @@
 #include "autoscan/planners/common.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <span>
 
 #include "autoscan/core/error.hpp"
 
@@ -111,6 +114,19 @@ std::vector<std::vector<std::size_t>> cluster_greedy(const std::vector<Vec3>& po
   return clusters;
 }
 
+std::vector<char> beyond_frontier(const ModelState& state, const std::vector<Vec3>& points, double range_factor) {
+  std::vector<char> far(points.size(), 0);
+  if (!(range_factor > 0.0) || state.raw.empty()) return far;
+  const double r = range_factor * state.scanner.far;
+  const spatial::KdTree raw(std::span<const Vec3>(state.raw.positions));
+  tbb::parallel_for(std::size_t(0), points.size(), [&](std::size_t i) {
+    std::uint32_t idx = 0;
+    double d2 = 0.0;
+    far[i] = raw.knn(points[i], 1, &idx, &d2) == 1 && d2 > r * r ? 1 : 0;
+  });
+  return far;
+}
+
 double quantile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
   const std::size_t i = std::min(values.size() - 1, static_cast<std::size_t>(q * double(values.size() - 1) + 0.5));
@@ -132,6 +148,14 @@ PlanOutput NeedFieldRunner::run(const std::string& planner, const ModelState& st
   iso.normals = state.iso_points.normals;
   std::vector<double> f(need.size());
   for (std::size_t i = 0; i < need.size(); ++i) f[i] = 1.0 - std::clamp(need[i], 0.0, 1.0);
+  // The frontier (NbvOptions::frontier_range): far from every measured point, no need.
+  const auto beyond = beyond_frontier(state, iso.positions, options_.frontier_range);
+  std::size_t n_beyond = 0;
+  for (std::size_t i = 0; i < beyond.size(); ++i)
+    if (beyond[i] && f[i] < 1.0) {
+      f[i] = 1.0;
+      ++n_beyond;
+    }
   iso.scalars.set("f", std::move(f));
   if (!nbv_)
     nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, options_);
@@ -142,6 +166,7 @@ PlanOutput NeedFieldRunner::run(const std::string& planner, const ModelState& st
   for (const auto& v : r.views) out.views.push_back({v.pose, v.score, v.target});
   out.path_length = r.path_length;
   out.diagnostics = nbv::diagnostics_to_json(r.diagnostics);
+  if (options_.frontier_range > 0) out.diagnostics["iso_points_beyond_frontier"] = n_beyond;
   return out;
 }
 

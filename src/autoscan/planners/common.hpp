@@ -57,6 +57,11 @@ std::vector<std::vector<std::size_t>> cluster_greedy(const std::vector<Vec3>& po
                                                      const std::vector<Vec3>& directions, double radius,
                                                      double min_dot);
 
+/// The frontier (NbvOptions::frontier_range): flags (1) the points farther than range_factor × d_f
+/// (state.scanner.far) from every raw point of `state`. All 0 when range_factor <= 0 or there are no
+/// raw points yet.
+std::vector<char> beyond_frontier(const ModelState& state, const std::vector<Vec3>& points, double range_factor);
+
 /// `values` sorted copy's q-quantile (q in [0, 1]); 0 for an empty input.
 double quantile(std::vector<double> values, double q);
 

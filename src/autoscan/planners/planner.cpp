@@ -32,6 +32,12 @@ namespace {
 /// rays through the hole returned no point and those along its wall graze it, so the carving never
 /// reaches it). Needs the scanner's intrinsics (PlannerOptions::scanner); voxels holding a point are
 /// never phantoms. Every phantom is left out of the iso-points the nbv module plans with.
+/// Beyond the paper, for scenes: the frontier (NbvOptions::frontier_range, docs/planners.md). Where
+/// the scanner's range is small against the object (a building from the ground), Poisson's surface
+/// far from every measured point is the solver's closing of the measured patches (a lid over the band
+/// of facades the blind ring saw), no estimate of a surface; views aimed there return nothing. Those
+/// iso-points draw no views (f = 1; they stay in the geometry of the search space), so the views
+/// extend the frontier of what was measured.
 /// Params: phantom_suppression (true), phantom_grid_resolution (128), phantom_stop_cells (2),
 /// max_rays_per_scan (30000), phantom_miss_scans (1; 0 = off), phantom_miss_block_px (0 = width/640,
 /// at least 1), phantom_miss_margin_deg (15).
@@ -135,6 +141,21 @@ class PoissonPlanner final : public Planner {
         for (std::size_t i = 0; i < iso.size(); ++i) phantom[i] = phantom[i] || (was_open[i] && !open[i]);
       }
       iso.scalars.set("f", std::move(f));
+    }
+    // The frontier: iso-points far from every measured point draw no views (f = 1), but stay in the
+    // plan's geometry (the search space's distances and its inside test need the whole surface).
+    const auto beyond = detail::beyond_frontier(state, iso.positions, options_.nbv.frontier_range);
+    std::size_t n_beyond = 0;
+    if (std::find(beyond.begin(), beyond.end(), 1) != beyond.end()) {
+      auto f = iso.scalars.get("f");
+      for (std::size_t i = 0; i < iso.size(); ++i)
+        if (beyond[i] && !phantom[i] && f[i] < 1.0) {
+          f[i] = 1.0;
+          ++n_beyond;
+        }
+      iso.scalars.set("f", std::move(f));
+    }
+    if (phantom_) {
       // A phantom is not there: no view aims at it (Eq. 5's target), and it is not the confident
       // surface Eq. 5's η looks for; the planner does not see it at all.
       std::vector<std::size_t> keep;
@@ -151,6 +172,7 @@ class PoissonPlanner final : public Planner {
     out.diagnostics = nbv::diagnostics_to_json(result->diagnostics);
     out.diagnostics["phantom_iso_points"] = phantoms + miss_phantoms;
     out.diagnostics["phantom_iso_points_seen_through"] = miss_phantoms;
+    if (options_.nbv.frontier_range > 0) out.diagnostics["iso_points_beyond_frontier"] = n_beyond;
     const Vec3 center = state.acquired_bounds.empty() ? state.mesh.bounds().center() : state.acquired_bounds.center();
     out.write_artifacts = [result, center](const std::filesystem::path& dir) {
       nbv::write_slice_png(dir / "field_slice.png", result->field, center, result->views);

@@ -40,6 +40,7 @@ constexpr double kBlindTilt = 0.35;         // rad (20°) below the horizon: the
 constexpr double kBlindHeight = 0.07;       // the blind ring's height above the ground (fraction)
 constexpr double kGroundTolerance = 0.002;  // ground points: within this of the plane (fraction)
 constexpr double kGroundClip = 0.004;       // the ground's surface: within this of the plane (fraction)
+constexpr double kFrontier = 0.5;           // views aim within 0.5 d_f of measured points (NbvOptions)
 
 ScannerSpec scene_scanner(ScannerSpec s) {
   // The default scanner's lengths scaled to the scene's range (its noise and pose error with it).
@@ -110,6 +111,10 @@ SimulateOptions scene_options(const std::string& name, SimulateOptions o, const 
   o.session.confidence.iso.count = 40000;
   o.session.consolidate.thinning.max_points = 300000;
   o.session.nbv.max_views = 15;
+  o.session.nbv.frontier_range = kFrontier;
+  // A view's least gain is relative to all iso-points (NbvOptions::min_view_gain), most of which lie
+  // beyond the frontier in a scene: a tenth of the object's threshold.
+  o.session.nbv.min_view_gain = 1e-4;
   o.session.max_views = 200;
   o.session.max_iterations = 15;
   o.scannable_options.surface_views = 3000;
