@@ -1150,6 +1150,15 @@ returns. One process per directory (a lock file); close() or `with` releases it.
           "docs/stop-rule.md; a budget spent, nothing to scan). `current`: the scanner's pose (default: the last "
           "scan's).")
       .def(
+          "refuse_view",
+          [](PySession& ps, const py::object& pose, const std::string& reason) {
+            const Pose p = to_pose(pose, "pose");
+            call([&] { ps.get().refuse_view(p, reason); });
+          },
+          "pose"_a, "reason"_a = "",
+          "Tells the session the robot could not take `pose` (a collision, a joint limit): later plans keep "
+          "every view out of a ball of 0.5 d_n around it (persisted in session.json 'refused_views').")
+      .def(
           "status", [](PySession& ps) { return from_json(session::to_json(ps.get().status())); },
           "The session's state: scans, model points, iterations, stopped, last mean f...")
       .def(

@@ -1,4 +1,4 @@
-// autoscan session init|add-scan|next-views|status DIR — the step-by-step loop a real robot drives
+// autoscan session init|add-scan|next-views|status|refuse-view DIR — the step-by-step loop a real robot drives
 // (library: autoscan/session/session.hpp; directory layout: docs/session-format.md).
 #include <filesystem>
 #include <memory>
@@ -30,6 +30,9 @@ struct NextViewsArgs {
 };
 struct StatusArgs {
   std::string dir;
+};
+struct RefuseViewArgs {
+  std::string dir, pose, reason;
 };
 
 nlohmann::json parse_json_file(const std::string& path, const std::string& option) {
@@ -140,6 +143,27 @@ void add_next_views(CLI::App* cmd, cli::Globals& g) {
   });
 }
 
+// -- refuse-view ----------------------------------------------------------------------------------
+void add_refuse_view(CLI::App* cmd, cli::Globals& g) {
+  auto rv = std::make_shared<RefuseViewArgs>();
+  auto* sr = cmd->add_subcommand("refuse-view",
+                                 "Tell the session the robot could not take a view (collision, joint limit): "
+                                 "later plans keep out of a ball around it");
+  sr->add_option("dir", rv->dir, "Session directory")->required();
+  sr->add_option("--pose", rv->pose, "The refused pose: px,py,pz,dx,dy,dz or JSON")->required();
+  sr->add_option("--reason", rv->reason, "Why (kept in session.json)");
+  g.on_run(sr, [&g, rv] {
+    require_session_dir(rv->dir);
+    const Pose pose = parse_pose(rv->pose, "--pose");
+    pose.validate("--pose");
+    auto s = session::Session::open(rv->dir);
+    s.refuse_view(pose, rv->reason);
+    g.emit({{"command", "session refuse-view"},
+            {"refused_views", static_cast<int>(s.refused_views().size())},
+            {"radius", session::Session::kRefusedViewRadius * s.scanner().near}});
+  });
+}
+
 // -- status ---------------------------------------------------------------------------------------
 void add_status(CLI::App* cmd, cli::Globals& g) {
   auto st = std::make_shared<StatusArgs>();
@@ -163,10 +187,11 @@ void add_status(CLI::App* cmd, cli::Globals& g) {
 AUTOSCAN_CLI_COMMAND(session, 80, [](CLI::App& root, autoscan::cli::Globals& g) {
   auto* cmd = root.add_subcommand("session",
                                   "The step-by-step scanning loop for a real robot (init, add-scan, "
-                                  "next-views, status)");
+                                  "next-views, status, refuse-view)");
   cmd->require_subcommand(1);
   add_init(cmd, g);
   add_add_scan(cmd, g);
   add_next_views(cmd, g);
   add_status(cmd, g);
+  add_refuse_view(cmd, g);
 });

@@ -775,3 +775,69 @@ TEST(GlobalRegistration, AResumedSessionReproducesTheRegistration) {
   EXPECT_TRUE(same_cloud(r.model_points(), model));
   fs::remove_all(dir);
 }
+
+// ---- refused views ------------------------------------------------------------------------------
+
+namespace {
+// Planner "test_probe": the ring planner's views, and in its diagnostics whether the rig it was
+// handed can take a view at each of the probe positions (params "probes": [[x, y, z], ...]).
+class ProbePlanner final : public planners::Planner {
+ public:
+  explicit ProbePlanner(const planners::PlannerOptions& o) : params_(o.params), ring_(o) {}
+  std::string name() const override { return "test_probe"; }
+  planners::PlanOutput plan(const planners::ModelState& state, const Pose& current, Rng& rng) override {
+    auto out = ring_.plan(state, current, rng);
+    nlohmann::json reach = nlohmann::json::array();
+    for (const auto& p : params_.at("probes"))
+      reach.push_back(state.rig.reachable(Pose::look_at(Vec3(p[0], p[1], p[2]), Vec3::Zero())));
+    out.diagnostics = {{"reachable", reach}};
+    return out;
+  }
+
+ private:
+  nlohmann::json params_;
+  test::RingPlanner ring_;
+};
+}  // namespace
+
+// A robot that cannot take a view tells the session (Session::refuse_view, `session refuse-view`):
+// the planner's rig of every later iteration refuses positions within kRefusedViewRadius × d_n of
+// it, and only there; the refusal is persisted and survives a reopen; a non-finite pose is refused.
+TEST(RefusedViews, ThePlannersRigKeepsOutOfABallAroundARefusedView) {
+  planners::register_planner("test_probe",
+                             [](const planners::PlannerOptions& o) { return std::make_unique<ProbePlanner>(o); });
+  const auto dir = fresh_dir("refused");
+  auto o = test::test_options();
+  o.planner = "test_probe";
+  const ScannerSpec scanner;
+  const double radius = Session::kRefusedViewRadius * scanner.near;
+  const Vec3 refused(0.9, 0.9, 0.4);
+  const Vec3 inside = refused + Vec3(0.9 * radius, 0, 0), outside = refused + Vec3(0, 0, 1.1 * radius);
+  o.planner_params = {{"probes",
+                       {{refused.x(), refused.y(), refused.z()},
+                        {inside.x(), inside.y(), inside.z()},
+                        {outside.x(), outside.y(), outside.z()}}}};
+  auto reach = [&](Session& s) { return s.iterations().back().planner_diagnostics.at("reachable"); };
+  {
+    auto s = Session::create(dir, scanner, Rig{}, o);
+    s.set_reconstructor(scripted_reconstructor({0.2, 0.4, 0.6, 0.8}));
+    add_blind_scans(s);
+    const auto a = s.next_views(pose_from(Vec3(1.2, 0, 0.2)));
+    EXPECT_EQ(reach(s), nlohmann::json::array({true, true, true}));
+    EXPECT_THROW(s.refuse_view(Pose{Vec3(NAN, 0, 0), Vec3::UnitX(), Vec3::UnitZ()}, "nan"), InputError);
+    s.refuse_view(pose_from(refused), "collision with the table");
+    EXPECT_EQ(s.status().refused_views, 1);
+    for (const auto& v : a.views) s.add_scan(sphere_scan(v.pose.position, 800, 50), v.pose);
+    s.next_views(a.views.back().pose);
+    EXPECT_EQ(reach(s), nlohmann::json::array({false, false, true}));
+  }
+  auto s = Session::open(dir);
+  s.set_reconstructor(scripted_reconstructor({0.2, 0.4, 0.6, 0.8}));
+  ASSERT_EQ(s.refused_views().size(), 1u);
+  EXPECT_EQ(s.refused_views()[0].reason, "collision with the table");
+  EXPECT_TRUE(s.refused_views()[0].pose.position.isApprox(refused));
+  s.add_scan(sphere_scan(Vec3(0, 0, 1.2), 800, 51), pose_from(Vec3(0, 0, 1.2)));
+  s.next_views();
+  EXPECT_EQ(reach(s), nlohmann::json::array({false, false, true}));
+  fs::remove_all(dir);
+}

@@ -243,6 +243,8 @@ class NbvPlanner {
   NbvPlanner& operator=(NbvPlanner&&) noexcept;
 
   void set_mesh(const TriangleMesh& mesh);
+  /// The rig of the next plans (a support plane found since, poses the robot refused).
+  void set_rig(const Rig& rig);
   void set_options(const NbvOptions& options);
   const NbvOptions& options() const;
   const ScannerSpec& scanner() const;

@@ -87,6 +87,10 @@ NbvPlanner::NbvPlanner(NbvPlanner&&) noexcept = default;
 NbvPlanner& NbvPlanner::operator=(NbvPlanner&&) noexcept = default;
 
 void NbvPlanner::set_mesh(const TriangleMesh& mesh) { impl_->scene = detail::make_scene(mesh); }
+void NbvPlanner::set_rig(const Rig& rig) {
+  rig.validate("rig");
+  impl_->rig = rig;
+}
 void NbvPlanner::set_options(const NbvOptions& options) {
   options.validate();
   impl_->options = options;

@@ -159,8 +159,10 @@ PlanOutput NeedFieldRunner::run(const std::string& planner, const ModelState& st
   iso.scalars.set("f", std::move(f));
   if (!nbv_)
     nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, options_);
-  else
+  else {
     nbv_->set_mesh(state.mesh);
+    nbv_->set_rig(state.rig);  // a support plane found since, poses the robot refused
+  }
   const nbv::PlanResult r = nbv_->plan(iso, current, state.field.get(), progress);
   PlanOutput out;
   for (const auto& v : r.views) out.views.push_back({v.pose, v.score, v.target});

@@ -110,8 +110,10 @@ class PoissonPlanner final : public Planner {
                      "planner 'poisson': the model has no iso-points with confidence 'f'");
     if (!nbv_)
       nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, options_.nbv);
-    else
+    else {
       nbv_->set_mesh(state.mesh);
+      nbv_->set_rig(state.rig);  // a support plane found since, poses the robot refused
+    }
     PointCloud iso = state.iso_points;
     std::size_t phantoms = 0, miss_phantoms = 0;
     std::vector<char> phantom(iso.size(), 0);

@@ -371,6 +371,7 @@ json to_json(const SessionStatus& s) {
           {"views_planned", s.views_planned},
           {"pending_scans", s.pending_scans},
           {"excluded_scans", s.excluded_scans},
+          {"refused_views", s.refused_views},
           {"registration", s.registration},
           {"stopped", s.stopped},
           {"stop_reason", s.stop_reason.empty() ? json(nullptr) : json(s.stop_reason)},
@@ -521,6 +522,19 @@ SessionFile parse_session_json(std::string_view text, const std::string& where) 
     if (j.contains("stopped")) out.stopped = boolean(j.at("stopped"), where + ": stopped");
     if (j.contains("stop_reason")) out.stop_reason = string_or_null(j.at("stop_reason"), where + ": stop_reason");
     if (j.contains("planner_state")) out.planner_state = j.at("planner_state");
+    if (j.contains("refused_views")) {
+      const json& rv = j.at("refused_views");
+      AUTOSCAN_REQUIRE(rv.is_array(), "{}: refused_views: expected an array (got {})", where, brief(rv));
+      for (std::size_t i = 0; i < rv.size(); ++i) {
+        const std::string w = fmt::format("{}: refused_views[{}]", where, i);
+        AUTOSCAN_REQUIRE(rv[i].is_object() && rv[i].contains("pose"), "{}: expected {{\"pose\": ..., \"reason\": ...}}",
+                         w);
+        RefusedView r;
+        r.pose = pose_from_json(rv[i].at("pose"), w + ": pose");
+        if (rv[i].contains("reason")) r.reason = string_or_null(rv[i].at("reason"), w + ": reason");
+        out.refused_views.push_back(std::move(r));
+      }
+    }
     const json& scans_j = j.at("scans");
     const json& iters_j = j.at("iterations");
     AUTOSCAN_REQUIRE(scans_j.is_array(), "{}: scans: expected an array of scan records (got {})", where,
@@ -596,8 +610,9 @@ struct Session::Impl {
   int views_planned = 0;
   bool stopped = false;
   std::string stop_reason;
-  int best_iteration = -1;  // the session's result (best_iteration())
-  bool best_fixed = false;  // set by finish(): not recomputed
+  std::vector<RefusedView> refused;  // refuse_view()
+  int best_iteration = -1;           // the session's result (best_iteration())
+  bool best_fixed = false;           // set by finish(): not recomputed
 
   // The registration target and Eq. 6's confidence, from the last iteration (reloaded on open).
   PointCloud target;                  // consolidated points with normals
@@ -656,7 +671,13 @@ struct Session::Impl {
             {"iterations", iters_j},
             {"best_iteration", best_iteration},
             {"stopped", stopped},
-            {"stop_reason", stop_reason.empty() ? json(nullptr) : json(stop_reason)}};
+            {"stop_reason", stop_reason.empty() ? json(nullptr) : json(stop_reason)},
+            {"refused_views", refused_json()}};
+  }
+  json refused_json() const {
+    json a = json::array();
+    for (const auto& r : refused) a.push_back({{"pose", to_json(r.pose)}, {"reason", r.reason}});
+    return a;
   }
 
   void persist() const { write_session_json(to_json_all()); }
@@ -1049,6 +1070,17 @@ struct Session::Impl {
         detected.half_extent = kMaxCoordinate / 2;
         state.rig.fixtures.push_back(detected);
       }
+    // Poses the robot refused (refuse_view): the planner's rig treats a ball around each as solid.
+    if (!refused.empty()) {
+      std::vector<Vec3> at;
+      for (const auto& r : refused) at.push_back(r.pose.position);
+      const double radius = Session::kRefusedViewRadius * scanner.near;
+      state.rig.inside_solid = [solid = state.rig.inside_solid, at = std::move(at), radius](const Vec3& p) {
+        for (const auto& q : at)
+          if ((p - q).squaredNorm() < radius * radius) return true;
+        return solid ? solid(p) : false;
+      };
+    }
     state.acquired_bounds = model.bounds();
     for (const auto& s : scans) state.scan_poses.push_back(s.registered_pose);
     Rng rng = Rng(options.seed).stream(kPlannerStream).stream(static_cast<std::uint64_t>(k));
@@ -1142,6 +1174,7 @@ struct Session::Impl {
     options = std::move(stored.options);
     current_pose = stored.current_pose;
     views_planned = stored.views_planned;
+    refused = std::move(stored.refused_views);
     stopped = stored.stopped;
     stop_reason = std::move(stored.stop_reason);
     iterations = std::move(stored.iterations);
@@ -1476,6 +1509,18 @@ void Session::attach_truth(int index, const json& truth) {
   m.persist();
 }
 
+void Session::refuse_view(const Pose& pose, const std::string& reason) {
+  pose.validate("refuse_view: pose");
+  auto& m = *impl_;
+  m.refused.push_back({pose, reason});
+  m.persist();
+  log::info("view at ({:.4g}, {:.4g}, {:.4g}) refused ({}): no view within {:.3g} of it is planned again",
+            pose.position.x(), pose.position.y(), pose.position.z(), reason.empty() ? "no reason given" : reason,
+            kRefusedViewRadius * m.scanner.near);
+}
+
+const std::vector<RefusedView>& Session::refused_views() const { return impl_->refused; }
+
 SessionStatus Session::status() const {
   const auto& m = *impl_;
   SessionStatus s;
@@ -1494,6 +1539,7 @@ SessionStatus Session::status() const {
   s.pending_scans = static_cast<int>(m.scans.size()) - m.pending_from();
   s.excluded_scans =
       static_cast<int>(std::count_if(m.scans.begin(), m.scans.end(), [](const ScanRecord& r) { return r.excluded; }));
+  s.refused_views = static_cast<int>(m.refused.size());
   if (!m.iterations.empty() && m.iterations.back().registration.is_object()) {
     const auto& g = m.iterations.back().registration;
     s.registration = {{"iteration", m.iterations.back().index},         {"pairs_used", g.value("pairs_used", 0)},

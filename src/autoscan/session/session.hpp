@@ -133,12 +133,19 @@ struct SessionStatus {
   std::optional<Pose> current_pose;
   int pending_scans = 0;   ///< scans added since the last iteration
   int excluded_scans = 0;  ///< scans kept out of the model (ScanRecord::excluded)
+  int refused_views = 0;   ///< poses the robot could not take (Session::refuse_view)
   /// The last iteration's global registration in brief: pairs used and dropped, seconds.
   nlohmann::json registration;
 };
 nlohmann::json to_json(const SessionStatus& s);
 nlohmann::json to_json(const IterationRecord& r);
 nlohmann::json to_json(const ScanRecord& r);
+
+/// A pose the robot could not take (Session::refuse_view): the planner keeps out of a ball around it.
+struct RefusedView {
+  Pose pose;
+  std::string reason;
+};
 
 /// What session.json holds, read and validated (types, ranges, consistency) but not applied.
 struct SessionFile {
@@ -155,6 +162,7 @@ struct SessionFile {
   /// What the planner fixed at an earlier plan() (null if none); checked by the planner's
   /// restore_state when the session is opened.
   nlohmann::json planner_state;
+  std::vector<RefusedView> refused_views;  ///< absent in older files: none
 };
 
 /// Parses and validates the text of a session.json; `where` names it in the messages. Throws
@@ -202,6 +210,15 @@ class Session {
   NextViews next_views(const Pose& current);
   NextViews next_views();  ///< from the last known pose (the last scan's registered pose)
 
+  /// Tells the session that the robot could not take `pose` (a collision, a position inside an
+  /// object the model has not seen yet, a joint limit): later plans keep every view position out
+  /// of the ball of radius kRefusedViewRadius × d_n around it (the planner's rig treats the ball as
+  /// solid). Persisted in session.json ("refused_views"). Throws InputError for a non-finite pose.
+  void refuse_view(const Pose& pose, const std::string& reason);
+  const std::vector<RefusedView>& refused_views() const;
+  /// The ball's radius around a refused view, times the scanner's d_n.
+  static constexpr double kRefusedViewRadius = 0.5;
+
   /// Ends the session after its last iteration for a reason its driver knows (a simulation whose
   /// error against the truth grew: "quality_fell_truth"), with `best` (an iteration index) as its
   /// result. Marks the last iteration stopped, writes model.ply and persists. No-op when stopped.
@@ -248,8 +265,8 @@ std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, cons
                                            const std::vector<double>& iso_f, double rho, Rng& rng);
 /// The same with oriented points (SessionOptions::insertion_neighbours): s_k is the nearest of the
 /// `neighbours` nearest iso-points whose normal is within `normal_deg` of the point's normal; when none
-/// is, the point measures a sheet the model does not have (f = 0: kept). `normals` has one unit normal per point, `iso_normals` one per
-/// iso-point (either empty, or neighbours = 0: the plain nearest). Same random draws as above.
+/// is, the point measures a sheet the model does not have (f = 0: kept). `normals` has one unit normal per point,
+/// `iso_normals` one per iso-point (either empty, or neighbours = 0: the plain nearest). Same random draws as above.
 std::vector<char> selective_insertion_mask(const std::vector<Vec3>& points, const std::vector<Vec3>& normals,
                                            const std::vector<Vec3>& iso_points, const std::vector<Vec3>& iso_normals,
                                            const std::vector<double>& iso_f, double rho, Rng& rng, int neighbours,

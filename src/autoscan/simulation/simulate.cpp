@@ -306,6 +306,8 @@ class Loop {
     const auto id = static_cast<std::uint64_t>(s.scans().size());
     if (const auto why = scanner_->refusal(pose)) {  // a refusal is a value, not an error
       log::warn("simulate: view skipped: {}", *why);
+      // The robot tells the session (a next-best view; the blind poses are the driver's own).
+      if (iteration >= 0) s.refuse_view(pose, *why);
       skipped_views_.insert({iteration, view});
       json j = json::array();
       for (const auto& [k, v] : skipped_views_) j.push_back({k, v});
