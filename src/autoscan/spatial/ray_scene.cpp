@@ -158,7 +158,8 @@ void RayScene::first_hits(int n, const Vec3& org, const Vec3* dirs, std::uint32_
   RTCRayHit16 rh;
   for (int i = 0; i < kPacketSize; ++i) {
     valid[i] = i < n ? -1 : 0;
-    set_ray16(rh.ray, i, org, dirs[i < n ? i : 0], std::numeric_limits<float>::infinity());
+    // Inactive lanes get a fixed finite ray (Embree's assertions read them on some ISAs).
+    set_ray16(rh.ray, i, org, i < n ? dirs[i] : Vec3::UnitZ(), i < n ? std::numeric_limits<float>::infinity() : 0.0f);
     rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
   }
@@ -185,7 +186,9 @@ void RayScene::occluded(int n, const Vec3& org, const Vec3* dirs, const double* 
   for (int i = 0; i < kPacketSize; ++i) {
     const bool on = i < n && active[i];
     valid[i] = on ? -1 : 0;
-    set_ray16(r, i, org, dirs[on ? i : 0], on ? static_cast<float>(tfar[i]) : 0.0f);
+    // An inactive lane's direction may be stale or uninitialised in the caller's buffer: a fixed
+    // finite ray instead (Embree's assertions read every lane on some ISAs).
+    set_ray16(r, i, org, on ? dirs[i] : Vec3::UnitZ(), on ? static_cast<float>(tfar[i]) : 0.0f);
   }
   rtcOccluded16(valid, impl_->scene.get(), &ctx, &r);
   for (int i = 0; i < n; ++i) hit[i] = active[i] && r.tfar[i] < 0.0f;
