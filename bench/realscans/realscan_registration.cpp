@@ -8,7 +8,7 @@
 //   * per scan: median distance of its registered points from their true places;
 //   * the Poisson mesh: median distance of the truly aligned scan points to it, and the share
 //     farther than 0.5 mm.
-// Usage: realscan_registration DIR OUT [--sigma-t M] [--sigma-r DEG] [--seed S] [--no-global]
+// Usage: realscan_registration DIR OUT [--sigma-t M] [--sigma-r DEG] [--seed S] [--no-global] [--cap K]
 //        [--depth D] [--sensor-distance M] [--json FILE]
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
   double prior_scale = 1.0, info_points = 0.0, robust = -1.0, trim = 0.0, incidence = 0.0, power = -1.0, disagree = 0.0,
          min_overlap = 0.0;
   std::size_t samples = 0;
-  int rounds = 0;
+  int rounds = 0, cap = -1;
   std::string json_out;
   for (int a = 3; a < argc; ++a) {
     const std::string k = argv[a];
@@ -132,6 +132,8 @@ int main(int argc, char** argv) {
       disagree = std::stod(next());
     else if (k == "--samples")
       samples = std::stoul(next());
+    else if (k == "--cap")
+      cap = std::stoi(next());
     else if (k == "--min-overlap")
       min_overlap = std::stod(next());
     else {
@@ -186,6 +188,7 @@ int main(int argc, char** argv) {
   opt.multiway.robot_translation_sigma = prior_scale * (sigma_t > 0 ? sigma_t : 0.003);
   opt.multiway.robot_rotation_sigma_deg = prior_scale * (sigma_r > 0 ? sigma_r : 1.0);
   if (info_points > 0) opt.multiway.information_points = info_points;
+  if (cap >= 0) opt.multiway.max_pairs_per_scan = cap;
   if (robust >= 0) opt.multiway.robust_scale = robust;
   if (trim > 0) opt.multiway.icp.trim_fraction = trim;
   if (rounds > 0) opt.multiway.rounds = rounds;

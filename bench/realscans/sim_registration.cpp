@@ -8,7 +8,7 @@
 // Also the pairwise ICP alone: per used pair, the RMS displacement of the source's points between
 // the pair's ICP result and the true relative placement.
 // Usage: sim_registration MESH [--noise N] [--views V] [--seed S] [--gain G] [--depth-noise 0|1]
-//        [--normal-k K] [--info-points P] [--rounds R]
+//        [--normal-k K] [--info-points P] [--rounds R] [--anchor-points A]
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   int views = 20, normal_k = 0, rounds = 0, samples = 0, targets = 0;
   bool depth_noise = true, no_outliers = false;
   double noise_gain = -1.0, noise_power = -1.0;
+  int anchor_points = -1;
   std::uint64_t seed = 1;
   for (int a = 2; a < argc; ++a) {
     const std::string k = argv[a];
@@ -85,6 +86,8 @@ int main(int argc, char** argv) {
       samples = std::stoi(next());
     else if (k == "--targets")
       targets = std::stoi(next());
+    else if (k == "--anchor-points")
+      anchor_points = std::stoi(next());
     else if (k == "--no-outliers")
       no_outliers = true;
     else {
@@ -159,6 +162,7 @@ int main(int argc, char** argv) {
   o.robot_rotation_sigma_deg = std::max(1e-4, noise * spec.noise.pose_rotation_sigma_deg);
   if (gain >= 0) o.incidence_gain = gain;
   if (normal_k > 0) o.normal_k = normal_k;
+  if (anchor_points >= 0) o.surface.anchor_points = anchor_points;
   if (info_points > 0) o.information_points = info_points;
   if (rounds > 0) o.rounds = rounds;
   if (samples > 0) o.sample_points = static_cast<std::size_t>(samples);

@@ -352,3 +352,32 @@ TEST(SurfaceFit, NeighbourhoodGrowsWithTheNoiseAndDenoises) {
   bad.k_max = 10;
   EXPECT_THROW(registration::fit_scan_surface(pts, sensor, bad), InputError);
 }
+
+// The surface fitted at one anchor in every k / anchor_points points, each point moved onto its
+// nearest anchor's surface (the cost: a fit per anchor), denoises as fitting every point does and
+// keeps the quadric's freedom from the curvature bias. Oracle: the sphere.
+TEST(SurfaceFit, AnchoredFitsDenoiseAsFittingEveryPoint) {
+  const double R = 0.1;
+  const Vec3 sensor(0, 0, 1.0);
+  const auto pts = noisy_cap(R, 0.003, 5, sensor);
+  registration::SurfaceFitOptions o;
+  o.k = 200;
+  o.anchor_points = 0;
+  const auto every = registration::fit_scan_surface(pts, sensor, o);
+  o.anchor_points = 50;  // an anchor in every 4 points
+  const auto anchored = registration::fit_scan_surface(pts, sensor, o);
+  double e_every = 0.0, e_anchored = 0.0, a_every = 0.0, a_anchored = 0.0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    e_every += std::abs(every.projected[i].norm() - R);
+    e_anchored += std::abs(anchored.projected[i].norm() - R);
+    a_every += std::acos(std::min(1.0, every.normals[i].dot(pts[i].normalized())));
+    a_anchored += std::acos(std::min(1.0, anchored.normals[i].dot(pts[i].normalized())));
+  }
+  EXPECT_LT(e_anchored, 1.15 * e_every);
+  EXPECT_LT(a_anchored, 1.15 * a_every);  // mean normal error
+  EXPECT_NEAR(mean_signed_offset(anchored.projected, R), 0.0, 2e-4);
+  EXPECT_EQ(anchored.neighbors, 200);
+  registration::SurfaceFitOptions bad;
+  bad.anchor_points = -1;
+  EXPECT_THROW(registration::fit_scan_surface(pts, sensor, bad), InputError);
+}

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/timer.hpp"
@@ -176,7 +177,7 @@ bool step_point_to_point(const Pairs& p, const std::vector<Vec3>& moved, const P
 
 IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights,
               const IcpOptions& options, const Eigen::Isometry3d& initial, ProgressCallback progress,
-              std::span<const double> source_weights) {
+              std::span<const double> source_weights, const spatial::KdTree* target_tree) {
   Stopwatch clock;
   AUTOSCAN_REQUIRE(!source.empty(), "icp: the source scan has no points");
   AUTOSCAN_REQUIRE(!target.empty(), "icp: the target model has no points");
@@ -217,8 +218,12 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
   }
   res.source_points_used = src.size();
 
-  const spatial::KdTree nn(target.positions, kKdLeafSize);
-  Matcher matcher(src, target, nn, plane, maxd, options.trim_fraction);
+  AUTOSCAN_CHECK(!target_tree || target_tree->size() == target.size(),
+                 "icp: a search tree over {} points for {} targets", target_tree ? target_tree->size() : 0,
+                 target.size());
+  std::optional<spatial::KdTree> own;
+  if (!target_tree) own.emplace(target.positions, kKdLeafSize);
+  Matcher matcher(src, target, target_tree ? *target_tree : *own, plane, maxd, options.trim_fraction);
   Eigen::Isometry3d T = initial;
   Pairs pairs = matcher.match(T);
   res.rms_before = pairs.rms;

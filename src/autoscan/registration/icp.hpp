@@ -17,6 +17,7 @@
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/progress.hpp"
 #include "autoscan/core/schema.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::registration {
 
@@ -115,9 +116,12 @@ struct IcpResult {
 /// invalid options.
 /// @param source_weights  #S non-negative weights of the source points, or empty; a pair's weight is
 ///                        the product of its source and target weights
+/// `target_tree`, when given, is a search tree over target.positions in the same order (a caller that
+/// registers many sources to one target builds it once); null: built here.
 IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights = {},
               const IcpOptions& options = {}, const Eigen::Isometry3d& initial = Eigen::Isometry3d::Identity(),
-              ProgressCallback progress = {}, std::span<const double> source_weights = {});
+              ProgressCallback progress = {}, std::span<const double> source_weights = {},
+              const spatial::KdTree* target_tree = nullptr);
 
 /// {"method", "iterations", "converged", "degenerate", "rms_before", "rms_after", "inlier_fraction",
 ///  "correspondences", "correction_translation", "correction_rotation_deg", "correction": 4x4 row-major,

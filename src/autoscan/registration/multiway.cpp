@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <optional>
@@ -153,21 +154,19 @@ struct PairWork {
 // Pairwise ICP of scan i (moved by Xi) to scan j (moved by Xj), then the normal matrix at the optimum.
 void register_pair(const Prepared& a, const Eigen::Isometry3d& Xi, const Prepared& b, const Eigen::Isometry3d& Xj,
                    double max_dist, const MultiwayOptions& o, PairWork& w) {
+  // The ICP runs in b's own (prepared) frame, against b's target and its search tree as prepared:
+  // the source is moved by Xj⁻¹ Xi. Point-to-plane residuals do not depend on the frame, so the
+  // optimum is the one of the world frame, and no pair copies or re-indexes its target.
+  const Eigen::Isometry3d toBstart = Xj.inverse() * Xi;
   PointCloud src;
   src.positions.reserve(a.sample.size());
-  for (const auto& p : a.sample) src.positions.push_back(Xi * p);
-  PointCloud tgt;
-  tgt.positions.reserve(b.target.size());
-  tgt.normals.reserve(b.target.size());
-  for (std::size_t k = 0; k < b.target.size(); ++k) {
-    tgt.positions.push_back(Xj * b.target.positions[k]);
-    tgt.normals.push_back(Xj.linear() * b.target.normals[k]);
-  }
+  for (const auto& p : a.sample) src.positions.push_back(toBstart * p);
   IcpOptions io = o.icp;
   io.max_correspondence_distance = max_dist;
   io.max_source_points = 0;
   io.weights_are_precisions = true;
-  const IcpResult r = icp(src, tgt, b.weight, io, Eigen::Isometry3d::Identity(), {}, a.sample_weight);
+  const IcpResult r =
+      icp(src, b.target, b.weight, io, Eigen::Isometry3d::Identity(), {}, a.sample_weight, b.tree.get());
   w.report.rms_before = r.rms_before;
   w.report.rms_after = r.rms_after;
   w.report.correspondences = r.correspondences;
@@ -175,13 +174,12 @@ void register_pair(const Prepared& a, const Eigen::Isometry3d& Xi, const Prepare
     w.report.dropped = "degenerate";
     return;
   }
-  const Eigen::Isometry3d dT = r.transform;  // source moved by Xi → onto target moved by Xj
-  w.measurement = Xj.inverse() * dT * Xi;
+  w.measurement = r.transform * toBstart;
   // Normal matrix Σ J Jᵀ, J = [y × n, n], over the pairs that truly overlap at the optimum: within
   // `tight` (three point spacings) of each other. A pair whose overlap at that distance is below
   // min_overlap is no pair (loose candidates on opposite sides of a small object, or ICP lost).
   const double tight = 3.0 * std::max(a.spacing, b.spacing);
-  const Eigen::Isometry3d toB = Xj.inverse() * dT * Xi;  // source sample → b's own frame
+  const Eigen::Isometry3d toB = w.measurement;  // source sample → b's own frame
   Mat6 H = Mat6::Zero();
   std::size_t n = 0;
   for (std::size_t q = 0; q < a.sample.size(); ++q) {
@@ -250,6 +248,8 @@ void SurfaceFitOptions::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(k_min >= 3 && k_max >= k_min && k_max <= 1000, "{}: need 3 <= k_min <= k_max <= 1000 (got {}, {})",
                    what, k_min, k_max);
   AUTOSCAN_REQUIRE(probe_k >= 10 && probe_k <= 1000, "{}: probe_k must be in [10, 1000] (got {})", what, probe_k);
+  AUTOSCAN_REQUIRE(anchor_points >= 0 && anchor_points <= 1000, "{}: anchor_points must be in [0, 1000] (got {})", what,
+                   anchor_points);
 }
 
 void MultiwayOptions::validate(const std::string& what) const {
@@ -296,8 +296,33 @@ struct LocalSurface {
   double residual = 0.0;        // signed distance of the point from the fitted surface (along the normal)
 };
 
-bool fit_local_surface(std::span<const Vec3> points, std::span<const std::size_t> idx, const Vec3& p, bool quadric,
-                       LocalSurface& out) {
+// A neighbourhood's fitted surface: the PCA frame (mean, tangents t1 t2, normal e0) and, for a
+// quadric, the height coefficients c over it (c = 0 beyond c0 for the plane).
+struct SurfacePatch {
+  Vec3 mean = Vec3::Zero(), t1 = Vec3::UnitX(), t2 = Vec3::UnitY(), e0 = Vec3::UnitZ();
+  Vec6 c = Vec6::Zero();
+  bool quadric = false;
+
+  // The point p moved onto the patch along e0, with the patch's normal there.
+  bool evaluate(const Vec3& p, LocalSurface& out) const {
+    const Vec3 d = p - mean;
+    if (quadric) {
+      const double u = d.dot(t1), v = d.dot(t2);
+      const double h = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+      const double hu = c[1] + 2.0 * c[3] * u + c[4] * v, hv = c[2] + c[4] * u + 2.0 * c[5] * v;
+      out.normal = (e0 - hu * t1 - hv * t2).normalized();
+      out.foot = mean + u * t1 + v * t2 + h * e0;
+      out.residual = (p - out.foot).dot(out.normal);
+      return out.normal.allFinite();
+    }
+    out.normal = e0;
+    out.residual = d.dot(e0);
+    out.foot = p - out.residual * e0;
+    return true;
+  }
+};
+
+bool fit_patch(std::span<const Vec3> points, std::span<const std::size_t> idx, bool quadric, SurfacePatch& out) {
   const std::size_t n = idx.size();
   if (n < 3) return false;
   Vec3 mean = Vec3::Zero();
@@ -311,14 +336,17 @@ bool fit_local_surface(std::span<const Vec3> points, std::span<const std::size_t
   const Eigen::SelfAdjointEigenSolver<Mat3> es(C);
   const Vec3 e0 = es.eigenvectors().col(0);
   if (!e0.allFinite() || e0.squaredNorm() < 0.5) return false;
-  const Vec3 d = p - mean;
+  out = SurfacePatch{};
+  out.mean = mean;
+  out.e0 = e0;
+  out.t1 = es.eigenvectors().col(2);
+  out.t2 = es.eigenvectors().col(1);
   if (quadric && n >= 10) {
-    const Vec3 t1 = es.eigenvectors().col(2), t2 = es.eigenvectors().col(1);
     Mat6 A = Mat6::Zero();
     Vec6 b = Vec6::Zero();
     for (const std::size_t m : idx) {
       const Vec3 q = points[m] - mean;
-      const double u = q.dot(t1), v = q.dot(t2);
+      const double u = q.dot(out.t1), v = q.dot(out.t2);
       Vec6 row;
       row << 1.0, u, v, u * u, u * v, v * v;
       A.noalias() += row * row.transpose();
@@ -326,19 +354,20 @@ bool fit_local_surface(std::span<const Vec3> points, std::span<const std::size_t
     }
     const Vec6 c = A.ldlt().solve(b);
     if (c.allFinite()) {
-      const double u = d.dot(t1), v = d.dot(t2);
-      const double h = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
-      const double hu = c[1] + 2.0 * c[3] * u + c[4] * v, hv = c[2] + c[4] * u + 2.0 * c[5] * v;
-      out.normal = (e0 - hu * t1 - hv * t2).normalized();
-      out.foot = mean + u * t1 + v * t2 + h * e0;
-      out.residual = (p - out.foot).dot(out.normal);
-      return out.normal.allFinite();
+      out.c = c;
+      out.quadric = true;
     }
   }
-  out.normal = e0;
-  out.residual = d.dot(e0);
-  out.foot = p - out.residual * e0;
   return true;
+}
+
+// One point's local surface from its neighbours `idx` (docs/registration.md, "Denoised targets"): the
+// PCA plane, and with `quadric` the height function h(u, v) = c0 + c1 u + c2 v + c3 u² + c4 uv + c5 v²
+// over it (a jet of order 2, as Cazals & Pouget). Returns false when the fit is degenerate.
+bool fit_local_surface(std::span<const Vec3> points, std::span<const std::size_t> idx, const Vec3& p, bool quadric,
+                       LocalSurface& out) {
+  SurfacePatch patch;
+  return fit_patch(points, idx, quadric, patch) && patch.evaluate(p, out);
 }
 
 }  // namespace
@@ -384,14 +413,35 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
         static_cast<int>(std::clamp(std::round(k), static_cast<double>(o.k_min), static_cast<double>(o.k_max)));
   }
   const auto k = static_cast<std::size_t>(fit.neighbors);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
+  // The anchors: one point in every `stride` (all of them for small neighbourhoods).
+  const std::size_t stride =
+      o.anchor_points > 0 ? std::max<std::size_t>(1, k / static_cast<std::size_t>(o.anchor_points)) : 1;
+  std::vector<std::size_t> anchors;
+  for (std::size_t i = 0; i < points.size(); i += stride) anchors.push_back(i);
+  std::vector<SurfacePatch> patch(anchors.size());
+  std::vector<char> fitted(anchors.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, anchors.size(), 64), [&](const auto& r) {
     std::vector<std::size_t> id;
     std::vector<double> dd;
+    for (std::size_t a = r.begin(); a != r.end(); ++a) {
+      const std::size_t n = nn.knn(points[anchors[a]], k, id, dd);
+      fitted[a] = fit_patch(points, std::span(id.data(), n), o.quadric, patch[a]) ? 1 : 0;
+    }
+  });
+  std::unique_ptr<spatial::KdTree> anchor_tree;
+  if (stride > 1) {
+    std::vector<Vec3> at;
+    at.reserve(anchors.size());
+    for (const std::size_t i : anchors) at.push_back(points[i]);
+    anchor_tree = std::make_unique<spatial::KdTree>(std::move(at), kKdLeafSize);
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const std::size_t n = nn.knn(points[i], k, id, dd);
+      double da2 = 0.0;
+      const std::size_t a = anchor_tree ? anchor_tree->nearest(points[i], &da2) : i;
       LocalSurface ls;
       Vec3 nrm = (sensor - points[i]).normalized();
-      if (fit_local_surface(points, std::span(id.data(), n), points[i], o.quadric, ls)) {
+      if (a < anchors.size() && fitted[a] && patch[a].evaluate(points[i], ls)) {
         nrm = ls.normal;
         fit.projected[i] = ls.foot;
       }
@@ -506,6 +556,7 @@ class MultiwayRun {
   std::vector<double> pair_dist_;
   std::vector<char> flagged_;
   std::vector<std::string> flag_reason_;
+  std::mutex fits_mutex_;
 };
 
 void MultiwayRun::prepare(std::vector<std::shared_ptr<const PreparedScan>>* cache) {
@@ -524,7 +575,12 @@ void MultiwayRun::prepare(std::vector<std::shared_ptr<const PreparedScan>>* cach
   tbb::parallel_for(std::size_t{0}, cand_.size(), [&](std::size_t k) {
     const std::size_t i = cand_[k];
     std::shared_ptr<const PreparedScan> f = cache ? (*cache)[i] : nullptr;
-    if (!f) f = std::make_shared<const PreparedScan>(fit_scan(scans_[i], sensors_[i], o_));
+    if (!f) {
+      Stopwatch fit_clock;
+      f = std::make_shared<const PreparedScan>(fit_scan(scans_[i], sensors_[i], o_));
+      const std::lock_guard lock(fits_mutex_);
+      res_.seconds_fits += fit_clock.seconds();  // summed over the scans (threads overlap)
+    }
     if (cache) (*cache)[i] = f;
     prep_[i] = registration::prepare(f, sensors_[i], c_, o_);
   });
@@ -700,8 +756,17 @@ void MultiwayRun::round(int r) {
     active[p] = work_[p].ok && !flagged_[pairs_[p].first] && !flagged_[pairs_[p].second];
   double typical_rms = 0.0;
   const std::vector<Eigen::Isometry3d> solved = solve_with_rejection(active, typical_rms);
+  // How far this round moved the free scans' points (at most 64 of each scan's samples).
+  double moved = 0.0;
   for (std::size_t i = 0; i < n_; ++i)
-    if (free_[i] && !flagged_[i]) X_[i] = solved[i];
+    if (free_[i] && !flagged_[i]) {
+      const auto& smp = prep_[i].sample;
+      for (std::size_t q = 0; q < smp.size(); q += std::max<std::size_t>(1, smp.size() / 64))
+        moved = std::max(moved, (solved[i] * smp[q] - X_[i] * smp[q]).norm());
+      X_[i] = solved[i];
+    }
+  log::debug("multiway: round {} moved the free scans' points by at most {:.3g} ({:.3g} of the typical pair residual)",
+             r + 1, moved, typical_rms > 0.0 ? moved / typical_rms : 0.0);
   for (std::size_t p = 0; p < pairs_.size(); ++p) {
     work_[p].report.used = active[p] != 0;
     if (active[p]) work_[p].report.dropped.clear();
@@ -771,9 +836,13 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     return res;
   }
   MultiwayRun run(scans, sensors, o, *c, std::move(free), res);
+  Stopwatch step;
   run.prepare(cache);
+  res.seconds_prepare = step.seconds();
+  step.reset();
   run.select_pairs();
   run.cap_pairs();
+  res.seconds_select = step.seconds();
   run.report_scans();
   for (int round = 0; round < o.rounds && run.has_pairs(); ++round) {
     run.round(round);
@@ -823,6 +892,9 @@ nlohmann::json to_json(const MultiwayResult& r) {
           {"seconds", r.seconds},
           {"seconds_pairs", r.seconds_pairs},
           {"seconds_graph", r.seconds_graph},
+          {"seconds_prepare", r.seconds_prepare},
+          {"seconds_fits", r.seconds_fits},
+          {"seconds_select", r.seconds_select},
           {"pairs", pairs},
           {"scans", scans}};
 }

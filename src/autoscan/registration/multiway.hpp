@@ -44,6 +44,13 @@ struct SurfaceFitOptions {
   int k_min = 20;
   int k_max = 400;
   int probe_k = 64;
+  /// Points per fitted neighbourhood, for the cost: the surface is fitted at one point in every
+  /// max(1, k / anchor_points) (the anchors, a stride over the points), and every point is moved onto
+  /// the surface of its nearest anchor (docs/registration.md, "Denoised targets"). A neighbourhood of
+  /// k points spans about √(k/π) spacings while the nearest anchor lies within about one, so each
+  /// point stays deep inside the neighbourhood its surface was fitted to. 0: every point is fitted
+  /// (k fits of k neighbours each: the registration's largest cost at noise, measured).
+  int anchor_points = 50;
   /// The JSON keys (docs/options.md); the ranges are checked by validate().
   template <class V>
   void visit_fields(V& v) {
@@ -52,6 +59,7 @@ struct SurfaceFitOptions {
     v("k_min", k_min);
     v("k_max", k_max);
     v("probe_k", probe_k);
+    v("anchor_points", anchor_points);
   }
   /// Throws InputError naming the option for values out of range.
   void validate(const std::string& what = "surface") const;
@@ -185,6 +193,9 @@ struct MultiwayResult {
   double incidence_gain = 0.0;    ///< the depth model's incidence term the points were weighed by
   double seconds = 0.0;
   double seconds_pairs = 0.0, seconds_graph = 0.0;
+  /// The scans' preparation (surface fits of the scans not cached, their search trees) and the
+  /// overlap tests that select the pairs.
+  double seconds_prepare = 0.0, seconds_fits = 0.0, seconds_select = 0.0;
 };
 
 /// Registers `scans` to each other.
