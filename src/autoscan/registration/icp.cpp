@@ -173,12 +173,9 @@ bool step_point_to_point(const Pairs& p, const std::vector<Vec3>& moved, const P
   return true;
 }
 
-}  // namespace
-
-IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights,
-              const IcpOptions& options, const Eigen::Isometry3d& initial, ProgressCallback progress,
-              std::span<const double> source_weights, const spatial::KdTree* target_tree) {
-  Stopwatch clock;
+// The contract of icp(): InputError for bad data or options.
+void check_inputs(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights,
+                  std::span<const double> source_weights, const IcpOptions& options, const Eigen::Isometry3d& initial) {
   AUTOSCAN_REQUIRE(!source.empty(), "icp: the source scan has no points");
   AUTOSCAN_REQUIRE(!target.empty(), "icp: the target model has no points");
   source.validate("icp source");
@@ -193,6 +190,15 @@ IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<cons
     AUTOSCAN_REQUIRE(std::isfinite(w) && w >= 0.0, "icp: source weights must be finite and non-negative (got {})", w);
   options.validate();
   AUTOSCAN_REQUIRE(initial.matrix().allFinite(), "icp: the initial transform is not finite");
+}
+
+}  // namespace
+
+IcpResult icp(const PointCloud& source, const PointCloud& target, std::span<const double> target_weights,
+              const IcpOptions& options, const Eigen::Isometry3d& initial, ProgressCallback progress,
+              std::span<const double> source_weights, const spatial::KdTree* target_tree) {
+  Stopwatch clock;
+  check_inputs(source, target, target_weights, source_weights, options, initial);
 
   const bool plane = options.point_to_plane && target.has_normals();
   AUTOSCAN_REQUIRE(plane || !options.point_to_plane || options.allow_point_to_point,

@@ -272,6 +272,8 @@ void MultiwayOptions::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(std::isfinite(incidence_gain) && incidence_gain >= 0.0,
                    "{}: incidence_gain must be finite and >= 0 (got {})", what, incidence_gain);
   AUTOSCAN_REQUIRE(rounds >= 1 && rounds <= 20, "{}: rounds must be in [1, 20] (got {})", what, rounds);
+  AUTOSCAN_REQUIRE(max_anchor_pairs_per_scan >= 0 && max_anchor_pairs_per_scan <= 1000,
+                   "{}: max_anchor_pairs_per_scan must be in [0, 1000] (got {})", what, max_anchor_pairs_per_scan);
   AUTOSCAN_REQUIRE(max_pairs_per_scan >= 0 && max_pairs_per_scan <= 1000,
                    "{}: max_pairs_per_scan must be in [0, 1000] (got {})", what, max_pairs_per_scan);
   AUTOSCAN_REQUIRE(std::isfinite(max_disagreement) && max_disagreement > 0.0,
@@ -644,20 +646,38 @@ void MultiwayRun::select_pairs() {
 // Each free scan keeps its partners of largest overlap (ties: the lower index); a pair stays when
 // one of its free scans keeps it (max_pairs_per_scan; 0 keeps all).
 void MultiwayRun::cap_pairs() {
-  if (o_.max_pairs_per_scan <= 0) return;
-  const auto k = static_cast<std::size_t>(o_.max_pairs_per_scan);
-  std::vector<std::vector<std::size_t>> of(n_);  // indices into pairs_
-  for (std::size_t p = 0; p < pairs_.size(); ++p) {
-    if (free_[pairs_[p].first]) of[pairs_[p].first].push_back(p);
-    if (free_[pairs_[p].second]) of[pairs_[p].second].push_back(p);
+  if (o_.max_pairs_per_scan <= 0 && o_.max_anchor_pairs_per_scan <= 0) return;
+  auto larger_overlap = [&](std::size_t a, std::size_t b) {
+    return overlap_of_.at(pairs_[a]) > overlap_of_.at(pairs_[b]);
+  };
+  std::vector<char> keep(pairs_.size(), 1);
+  if (o_.max_pairs_per_scan > 0) {
+    const auto k = static_cast<std::size_t>(o_.max_pairs_per_scan);
+    std::vector<std::vector<std::size_t>> of(n_);  // indices into pairs_
+    for (std::size_t p = 0; p < pairs_.size(); ++p) {
+      if (free_[pairs_[p].first]) of[pairs_[p].first].push_back(p);
+      if (free_[pairs_[p].second]) of[pairs_[p].second].push_back(p);
+    }
+    std::fill(keep.begin(), keep.end(), 0);
+    for (std::size_t i = 0; i < n_; ++i) {
+      auto& list = of[i];
+      std::stable_sort(list.begin(), list.end(), larger_overlap);
+      for (std::size_t t = 0; t < list.size() && t < k; ++t) keep[list[t]] = 1;
+    }
   }
-  std::vector<char> keep(pairs_.size(), 0);
-  for (std::size_t i = 0; i < n_; ++i) {
-    auto& list = of[i];
-    std::stable_sort(list.begin(), list.end(), [&](std::size_t a, std::size_t b) {
-      return overlap_of_.at(pairs_[a]) > overlap_of_.at(pairs_[b]);
-    });
-    for (std::size_t t = 0; t < list.size() && t < k; ++t) keep[list[t]] = 1;
+  if (o_.max_anchor_pairs_per_scan > 0) {
+    // A pair of a free scan and an anchor (a fixed scan) has one free scan: it keeps its
+    // max_anchor_pairs_per_scan anchors of largest overlap.
+    const auto k = static_cast<std::size_t>(o_.max_anchor_pairs_per_scan);
+    std::vector<std::vector<std::size_t>> anchors_of(n_);
+    for (std::size_t p = 0; p < pairs_.size(); ++p) {
+      const auto [i, j] = pairs_[p];
+      if (keep[p] && free_[i] != free_[j]) anchors_of[free_[i] ? i : j].push_back(p);
+    }
+    for (auto& list : anchors_of) {
+      std::stable_sort(list.begin(), list.end(), larger_overlap);
+      for (std::size_t t = k; t < list.size(); ++t) keep[list[t]] = 0;
+    }
   }
   std::size_t w = 0;
   for (std::size_t p = 0; p < pairs_.size(); ++p)

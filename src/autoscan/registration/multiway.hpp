@@ -113,6 +113,12 @@ struct MultiwayOptions {
   /// 47, 70, 76, 120 pairs in iterations 1-4, registration half of the loop's time). Its best few
   /// partners should hold it as firmly; 0 (the default until that is measured) keeps every pair.
   int max_pairs_per_scan = 0;
+  /// At most this many pairs of a free scan with the fixed scans of earlier iterations (anchors): its
+  /// anchors of largest overlap (0 = all). The pairs among the free scans are all kept: capping them
+  /// loses the long-baseline pairs that hold a ring of scans together (dragon_stand: the mesh 0.217
+  /// mm from the truth with max_pairs_per_scan 6, 0.166 mm with all pairs; docs/benchmarks.md). A
+  /// later iteration's new scans overlap more and more anchors: this bounds its cost by the new scans.
+  int max_anchor_pairs_per_scan = 0;
   int rounds = 3;                 ///< pairwise ICP + graph solve rounds
   double max_disagreement = 3.0;  ///< drop a pair whose implied displacement exceeds this × its RMS
   double outlier_sigma = 5.0;     ///< flag a scan whose correction is beyond this many σ (Mahalanobis)
@@ -141,6 +147,7 @@ struct MultiwayOptions {
     v("max_incidence_deg", max_incidence_deg);
     // incidence_gain: not listed; a session sets it from its scanner JSON (noise.depth_incidence_gain).
     v("max_pairs_per_scan", max_pairs_per_scan);
+    v("max_anchor_pairs_per_scan", max_anchor_pairs_per_scan);
     v("rounds", rounds);
     v("max_disagreement", max_disagreement);
     v("outlier_sigma", outlier_sigma);
