@@ -381,3 +381,41 @@ TEST(SurfaceFit, AnchoredFitsDenoiseAsFittingEveryPoint) {
   bad.anchor_points = -1;
   EXPECT_THROW(registration::fit_scan_surface(pts, sensor, bad), InputError);
 }
+
+// max_anchor_pairs_per_scan bounds each free scan's pairs with the fixed scans of earlier iterations
+// (the later iterations' cost) and keeps every pair among the free scans: two new scans among six
+// anchors at their true placement keep one anchor each and their own pair, and come to their true
+// places.
+TEST(Multiway, CapsTheAnchorPairsAndKeepsThePairsAmongTheFreeScans) {
+  const Scene s = make_scene(8, 0.004, 0.5, 9);
+  std::vector<char> free(s.scans.size(), 0);
+  free[3] = free[4] = 1;  // neighbours on the ring
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.004;
+  o.robot_rotation_sigma_deg = 0.5;
+  std::vector<Eigen::Isometry3d> init;
+  for (const auto& E : s.error) init.push_back(E.inverse());
+  init[3] = init[4] = Eigen::Isometry3d::Identity();
+  const auto all = register_multiway(s.scans, s.sensors, init, free, o);
+  o.max_anchor_pairs_per_scan = 1;
+  const auto capped = register_multiway(s.scans, s.sensors, init, free, o);
+  EXPECT_GT(capped.pairs_capped, 0u);
+  EXPECT_EQ(capped.pairs.size() + capped.pairs_capped, all.pairs.size());
+  std::vector<int> anchors_of(s.scans.size(), 0);
+  bool free_pair = false;
+  for (const auto& p : capped.pairs) {
+    const bool fi = free[static_cast<std::size_t>(p.i)] != 0, fj = free[static_cast<std::size_t>(p.j)] != 0;
+    if (fi && fj) free_pair = true;
+    if (fi != fj) ++anchors_of[static_cast<std::size_t>(fi ? p.i : p.j)];
+  }
+  EXPECT_TRUE(free_pair);
+  EXPECT_EQ(anchors_of[3], 1);
+  EXPECT_EQ(anchors_of[4], 1);
+  for (std::size_t k : {std::size_t{3}, std::size_t{4}}) {
+    const Eigen::Isometry3d residual = capped.corrections[k] * s.error[k];
+    EXPECT_LT(residual.translation().norm(), 0.001) << "scan " << k;
+    EXPECT_LT(rotation_angle_deg(residual), 0.1) << "scan " << k;
+  }
+  o.max_anchor_pairs_per_scan = -1;
+  EXPECT_THROW(register_multiway(s.scans, s.sensors, init, free, o), InputError);
+}
