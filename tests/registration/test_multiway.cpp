@@ -396,6 +396,7 @@ TEST(Multiway, CapsTheAnchorPairsAndKeepsThePairsAmongTheFreeScans) {
   std::vector<Eigen::Isometry3d> init;
   for (const auto& E : s.error) init.push_back(E.inverse());
   init[3] = init[4] = Eigen::Isometry3d::Identity();
+  o.max_anchor_pairs_per_scan = 0;
   const auto all = register_multiway(s.scans, s.sensors, init, free, o);
   o.max_anchor_pairs_per_scan = 1;
   const auto capped = register_multiway(s.scans, s.sensors, init, free, o);

@@ -33,7 +33,7 @@ TEST(SimulateOptions, JsonKeepsItsKeysAndRoundTrips) {
                                             "scannable_options", "scanner", "scene", "session"}));
   EXPECT_EQ(j.at("blind").size(), 4u);
   EXPECT_EQ(j.at("eval").size(), 5u);
-  EXPECT_FALSE(j.at("session").at("global_registration").get<bool>());  // simulate's default
+  EXPECT_TRUE(j.at("session").at("global_registration").get<bool>());  // as a session's (off for an exact robot)
 
   o.blind.views = 6;
   o.blind.elevations_deg = {-10.0, 20.0, 45.0};

@@ -27,20 +27,14 @@
 namespace autoscan::simulation {
 
 struct SimulateOptions {
-  /// The global multi-view registration is off in simulation unless the config's session asks for
-  /// it ({"session": {"global_registration": true}}): on bunny00 at noise 0.5 it did not bring the
-  /// virtual scans closer to where they belong (mean 0.00333 -> 0.00344) and the F-score at 40 views
-  /// fell from 0.949 to 0.805 (docs/benchmarks.md, "Global registration"). It stays on for a session
-  /// a real robot drives, where it helps (real dragon_stand scans: 1.16 mm -> 0.23 mm). Measured again
-  /// since the quadric surface fits (docs/benchmarks.md, "Global registration in the loop"): armadillo
-  /// at noise 0.5, 40 views, accuracy 0.00079/0.00078/0.00075 at 10/20/40 views with it against
-  /// 0.00123/0.00113/0.00108 without; but registration then takes half of the loop's time. Turning it
-  /// on here waits for that cost (max_pairs_per_scan) to be measured.
-  session::SessionOptions session = [] {  ///< planner, stage options, budgets (max_views, max_iterations),
-    session::SessionOptions o;            ///< seed; the model is thinned to at most 200k points per iteration
-    o.global_registration = false;
-    return o;
-  }();
+  /// Planner, stage options, budgets (max_views, max_iterations), seed; the model is thinned to at
+  /// most 200k points per iteration. The global multi-view registration is on, as in a session a
+  /// real robot drives (simulate turns it off for a noise-free robot): measured on armadillo, 40
+  /// views, the accuracy of the Poisson mesh at 40 views 0.00080 against 0.00108 without it at noise
+  /// 0.5 and 0.00159 against 0.00236 at noise 1.0, rising with every iteration, for 22 % of the
+  /// loop's wall time with `multiway.max_anchor_pairs_per_scan` 3 (docs/benchmarks.md, "Global
+  /// registration on in simulation").
+  session::SessionOptions session;
   ScannerSpec scanner;  ///< the virtual scanner (noise included)
   Rig rig;              ///< which poses the robot reaches, and its fixtures (the scanner's scene)
   /// The session is told the rig's fixtures (it removes their points by geometry). false: the
