@@ -117,3 +117,24 @@ TEST(CliSession, InitRefusesBadOptionsAndKeepsEveryGivenOne) {
   EXPECT_EQ(session.at("params").at("consolidate").at("normals").at("sheet_refinement"), false);
   std::filesystem::remove_all(d);
 }
+
+// `session refuse-view` records the pose the robot could not take (session.json "refused_views",
+// `session status`); a malformed pose is exit code 2 and records nothing.
+TEST(CliSession, RefuseViewIsRecordedAndABadPoseIsRefused) {
+  const auto d = fresh_dir("cli_session_refuse");
+  std::filesystem::create_directories(d);
+  const auto s = d / "s";
+  ASSERT_EQ(run_cli("session init " + q(s)).code, 0);
+  auto r = run_cli("session refuse-view " + q(s) + " --pose nan,0,0,1,0,0");
+  EXPECT_EQ(r.code, 2) << r.err;
+  r = run_cli("session refuse-view " + q(s) + " --pose 0.5,0.2,0.3,-1,0,0 --reason " + q("joint limit") + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out).at("refused_views"), 1);
+  const auto session = nlohmann::json::parse(std::ifstream(s / "session.json"));
+  ASSERT_EQ(session.at("refused_views").size(), 1u);
+  EXPECT_EQ(session.at("refused_views")[0].at("reason"), "joint limit");
+  r = run_cli("session status " + q(s) + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out).at("status").at("refused_views"), 1);
+  std::filesystem::remove_all(d);
+}
