@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <optional>
@@ -439,11 +438,10 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
   }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      double da2 = 0.0;
-      const std::size_t a = anchor_tree ? anchor_tree->nearest(points[i], &da2) : i;
+      const std::size_t a = anchor_tree ? anchor_tree->nearest(points[i]) : i;
       LocalSurface ls;
       Vec3 nrm = (sensor - points[i]).normalized();
-      if (a < anchors.size() && fitted[a] && patch[a].evaluate(points[i], ls)) {
+      if (fitted[a] && patch[a].evaluate(points[i], ls)) {
         nrm = ls.normal;
         fit.projected[i] = ls.foot;
       }
@@ -558,7 +556,6 @@ class MultiwayRun {
   std::vector<double> pair_dist_;
   std::vector<char> flagged_;
   std::vector<std::string> flag_reason_;
-  std::mutex fits_mutex_;
 };
 
 void MultiwayRun::prepare(std::vector<std::shared_ptr<const PreparedScan>>* cache) {
@@ -574,18 +571,19 @@ void MultiwayRun::prepare(std::vector<std::shared_ptr<const PreparedScan>>* cach
         if (!scans_[j].empty() && (j == i || boxes_touch(i, j))) candidate[j] = 1;
   for (std::size_t i = 0; i < n_; ++i)
     if (candidate[i]) cand_.push_back(i);
+  std::vector<double> fit_seconds(cand_.size(), 0.0);  // of the scans fitted here (not cached)
   tbb::parallel_for(std::size_t{0}, cand_.size(), [&](std::size_t k) {
     const std::size_t i = cand_[k];
     std::shared_ptr<const PreparedScan> f = cache ? (*cache)[i] : nullptr;
     if (!f) {
       Stopwatch fit_clock;
       f = std::make_shared<const PreparedScan>(fit_scan(scans_[i], sensors_[i], o_));
-      const std::lock_guard lock(fits_mutex_);
-      res_.seconds_fits += fit_clock.seconds();  // summed over the scans (threads overlap)
+      fit_seconds[k] = fit_clock.seconds();
     }
     if (cache) (*cache)[i] = f;
     prep_[i] = registration::prepare(f, sensors_[i], c_, o_);
   });
+  for (const double t : fit_seconds) res_.seconds_fits += t;  // summed over the scans (threads overlap)
   for (std::size_t i = 0; i < n_; ++i) X_[i] = to_centred(res_.corrections[i], c_);
 }
 
@@ -644,7 +642,8 @@ void MultiwayRun::select_pairs() {
 }
 
 // Each free scan keeps its partners of largest overlap (ties: the lower index); a pair stays when
-// one of its free scans keeps it (max_pairs_per_scan; 0 keeps all).
+// one of its free scans keeps it (max_pairs_per_scan; 0 keeps all). Then each free scan keeps its
+// max_anchor_pairs_per_scan anchors of largest overlap (0 keeps all); pairs of two free scans stay.
 void MultiwayRun::cap_pairs() {
   if (o_.max_pairs_per_scan <= 0 && o_.max_anchor_pairs_per_scan <= 0) return;
   auto larger_overlap = [&](std::size_t a, std::size_t b) {
@@ -776,17 +775,8 @@ void MultiwayRun::round(int r) {
     active[p] = work_[p].ok && !flagged_[pairs_[p].first] && !flagged_[pairs_[p].second];
   double typical_rms = 0.0;
   const std::vector<Eigen::Isometry3d> solved = solve_with_rejection(active, typical_rms);
-  // How far this round moved the free scans' points (at most 64 of each scan's samples).
-  double moved = 0.0;
   for (std::size_t i = 0; i < n_; ++i)
-    if (free_[i] && !flagged_[i]) {
-      const auto& smp = prep_[i].sample;
-      for (std::size_t q = 0; q < smp.size(); q += std::max<std::size_t>(1, smp.size() / 64))
-        moved = std::max(moved, (solved[i] * smp[q] - X_[i] * smp[q]).norm());
-      X_[i] = solved[i];
-    }
-  log::debug("multiway: round {} moved the free scans' points by at most {:.3g} ({:.3g} of the typical pair residual)",
-             r + 1, moved, typical_rms > 0.0 ? moved / typical_rms : 0.0);
+    if (free_[i] && !flagged_[i]) X_[i] = solved[i];
   for (std::size_t p = 0; p < pairs_.size(); ++p) {
     work_[p].report.used = active[p] != 0;
     if (active[p]) work_[p].report.dropped.clear();
