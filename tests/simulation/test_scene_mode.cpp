@@ -5,11 +5,13 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/shapes/primitives.hpp"
 #include "autoscan/simulation/fixtures.hpp"
 #include "autoscan/simulation/scene.hpp"
 #include "autoscan/simulation/simulate.hpp"
@@ -66,6 +68,45 @@ TEST(SceneMode, BlindRingGoesAroundTheFootprintAtTheMastHeight) {
     };
     EXPECT_LT(outside(p.position + 0.01 * p.direction.normalized()), outside(p.position));
   }
+}
+
+// With the buildings given, each blind pose turns to the nearest building on its inner side and
+// drives up to it: the centre ray meets a building at d_o. Two small blocks in the corners of a wide
+// footprint: on the rectangle, most views would see only the ground between them.
+TEST(SceneMode, BlindRingDrivesUpToTheBuildingsItSees) {
+  const auto o = simulation::scene_options("square");
+  TriangleMesh blocks = box(Vec3(-0.36, -0.26, -0.3), Vec3(-0.20, -0.10, 0.0));
+  const TriangleMesh other = box(Vec3(0.22, 0.08, -0.3), Vec3(0.36, 0.26, -0.05));
+  const int base = static_cast<int>(blocks.vertices.size());
+  blocks.vertices.insert(blocks.vertices.end(), other.vertices.begin(), other.vertices.end());
+  for (auto f : other.faces) blocks.faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+  const spatial::RayScene scene(blocks);
+  const AABB b = blocks.bounds();
+  const double d_o = o.scanner.optimal_distance();
+  const auto flat = simulation::scene_blind_poses(b, o.scanner, o.rig, 36);
+  const auto moved = simulation::scene_blind_poses(b, o.scanner, o.rig, 36, &scene);
+  ASSERT_EQ(moved.size(), flat.size());
+  auto range = [&](const Pose& p) {
+    double t = 0.0;
+    return scene.first_hit(p.position, p.direction.normalized(), 0.0, 10.0, &t) == spatial::RayScene::kNoHit
+               ? std::numeric_limits<double>::infinity()
+               : t;
+  };
+  int seeing_flat = 0, seeing_moved = 0;
+  for (std::size_t i = 0; i < moved.size(); ++i) {
+    const Pose& p = moved[i];
+    EXPECT_TRUE(o.rig.reachable(p));
+    EXPECT_NEAR(p.position.z(), -0.3 + 0.07, 1e-9);                     // the mast's height kept
+    EXPECT_NEAR(std::asin(-p.direction.normalized().z()), 0.35, 1e-9);  // and the pitch
+    if (range(flat[i]) < o.scanner.far) ++seeing_flat;
+    const double t = range(p);
+    if (t < o.scanner.far) {
+      ++seeing_moved;
+      EXPECT_NEAR(t, d_o, 0.02 * d_o) << "pose " << i;
+    }
+  }
+  EXPECT_GT(seeing_moved, 2 * seeing_flat);  // on the rectangle few centre rays meet a block in range
+  EXPECT_GE(seeing_moved, 30);
 }
 
 TEST(SceneMode, ChurchRunKeepsTheGroundOutAndTheViewsOnTheMast) {

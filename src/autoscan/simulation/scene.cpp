@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numbers>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/shapes/scene.hpp"
@@ -127,7 +129,51 @@ TriangleMesh scene_mesh(const std::string& name, const std::string& what) {
   return scene_of(parse_preset(name, what)).mesh();
 }
 
-std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec, const Rig& rig, int views) {
+namespace {
+
+/// Turns a blind pose toward the nearest building on its inner side and moves it along that
+/// heading until the building is at d_o along the centre ray (scene_blind_poses, "With `scene`").
+Pose approach(const Pose& pose, const ScannerSpec& spec, const Rig& rig, const spatial::RayScene& scene) {
+  constexpr int kFan = 19;   // headings tried, from 90° left to 90° right of looking in
+  constexpr int kSteps = 3;  // range corrections (a sloped or stepped facade)
+  const double d_o = spec.optimal_distance();
+  const double inf = std::numeric_limits<double>::infinity();
+  const Vec3 dir0 = pose.direction.normalized();
+  const double yaw0 = std::atan2(dir0.y(), dir0.x());
+  auto heading = [](double yaw, double pitch) {
+    return Vec3(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), -std::sin(pitch));
+  };
+  // The nearest building by horizontal distance, seen level (a building far off, whose foot the
+  // pitched ray would not reach before the ground) or at the blind pitch (one lower than the mast).
+  double best_h = inf, best_yaw = yaw0;
+  for (int k = 0; k < kFan; ++k) {
+    const double yaw = yaw0 + 0.5 * std::numbers::pi * (2.0 * k / (kFan - 1) - 1.0);
+    for (const double pitch : {0.0, kBlindTilt}) {
+      double t = 0.0;
+      if (scene.first_hit(pose.position, heading(yaw, pitch), 0.0, inf, &t) != spatial::RayScene::kNoHit &&
+          t * std::cos(pitch) < best_h)
+        best_h = t * std::cos(pitch), best_yaw = yaw;
+    }
+  }
+  if (!std::isfinite(best_h)) return pose;
+  const Vec3 dir = heading(best_yaw, kBlindTilt);
+  const Vec3 flat(std::cos(best_yaw), std::sin(best_yaw), 0.0);
+  // Up to d_o along the centre ray: first as if the facade were vertical, then by the range measured.
+  Vec3 position = pose.position + (best_h - d_o * std::cos(kBlindTilt)) * flat;
+  for (int step = 0; step < kSteps; ++step) {
+    double t = 0.0;
+    if (scene.first_hit(position, dir, 0.0, inf, &t) == spatial::RayScene::kNoHit) return pose;
+    if (std::abs(t - d_o) < 0.02 * d_o) break;
+    position += (t - d_o) * std::cos(kBlindTilt) * flat;
+  }
+  const Pose moved = Pose::look_at(position, position + dir, Vec3::UnitZ()).normalized();
+  return rig.reachable(moved) ? moved : pose;
+}
+
+}  // namespace
+
+std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec, const Rig& rig, int views,
+                                    const spatial::RayScene* scene) {
   AUTOSCAN_REQUIRE(views >= 1, "scene blind scan: need at least one view, got {}", views);
   const double d_o = spec.optimal_distance();
   const double ground = rig.ground_height();
@@ -155,7 +201,7 @@ std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec,
     // front of them (whose points the session removes).
     const Vec3 target = position + d_o * in - d_o * std::tan(kBlindTilt) * Vec3::UnitZ();
     const Pose pose = Pose::look_at(position, target, Vec3::UnitZ()).normalized();
-    if (rig.reachable(pose)) poses.push_back(pose);
+    if (rig.reachable(pose)) poses.push_back(scene ? approach(pose, spec, rig, *scene) : pose);
   }
   return poses;
 }

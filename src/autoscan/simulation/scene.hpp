@@ -20,6 +20,7 @@
 #include "autoscan/core/pose.hpp"
 #include "autoscan/session/reconstruct.hpp"
 #include "autoscan/simulation/simulate.hpp"
+#include "autoscan/spatial/ray_scene.hpp"
 
 namespace autoscan::simulation {
 
@@ -38,7 +39,14 @@ TriangleMesh scene_mesh(const std::string& name, const std::string& what = "--sc
 /// footprint (`bounds`, X-Y) grown by d_o, 0.07 above the ground (clamped into the rig's height band;
 /// about 6 m in the square), each looking in across the nearest side, 20° below the horizon. Poses
 /// the rig refuses are left out.
-std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec, const Rig& rig, int views);
+/// With `scene` (the operator sees the buildings and drives up to them), each pose then turns toward
+/// the nearest building on its inner side (a fan of headings from 90° left to 90° right of looking
+/// in, at the same pitch) and moves along its heading until that building lies at d_o along its
+/// centre ray: a rectangle's side is often far from every building (the church's: 14 of 24 views
+/// saw only the ground). A pose whose fan meets nothing stays where it is; a moved pose the rig
+/// refuses keeps its place on the rectangle.
+std::vector<Pose> scene_blind_poses(const AABB& bounds, const ScannerSpec& spec, const Rig& rig, int views,
+                                    const spatial::RayScene* scene = nullptr);
 
 /// The session's reconstruction for a scene: reconstruct_model with the ground under the model's
 /// points joined to the consolidated cloud (a grid of about `ground_samples` points at

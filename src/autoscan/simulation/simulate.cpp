@@ -435,10 +435,13 @@ class Loop {
   }
 
   void blind_phase(session::Session& s) {
-    const auto poses = opts_.scene.empty()
-                           ? scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind)
-                           : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig, opts_.blind.views);
     if (!s.iterations().empty()) return;
+    // A scene's blind ring drives up to the buildings (the operator sees them): the truth's ray scene.
+    std::optional<spatial::RayScene> buildings;
+    if (!opts_.scene.empty()) buildings.emplace(truth_);
+    const auto poses = opts_.scene.empty() ? scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind)
+                                           : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig,
+                                                               opts_.blind.views, &*buildings);
     for (std::size_t i = 0; i < poses.size(); ++i) {
       const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
         return same_position(r.reported_pose, poses[i]);
