@@ -420,3 +420,52 @@ TEST(Multiway, CapsTheAnchorPairsAndKeepsThePairsAmongTheFreeScans) {
   o.max_anchor_pairs_per_scan = -1;
   EXPECT_THROW(register_multiway(s.scans, s.sensors, init, free, o), InputError);
 }
+
+// Bridges (bridge_min_overlap): when the pairs that overlap by min_overlap leave a ring of scans in
+// pieces (as at high noise, where neighbouring blind scans overlap by 12-19 % within three point
+// spacings), the weak pairs of largest overlap that join the pieces are used, and only as many as
+// that takes: every scan is aligned, where without bridges the pieces keep their relative error.
+TEST(Multiway, BridgesJoinTheGroupsThatMinOverlapLeavesApart) {
+  const Scene s = make_scene(8, 0.006, 1.0, 3);
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.006;
+  o.robot_rotation_sigma_deg = 1.0;
+  o.max_incidence_deg = 45.0;  // smaller scans: neighbouring views overlap less
+  o.min_overlap = 0.2;
+  o.bridge_min_overlap = 0.0;
+  const auto apart = register_multiway(s.scans, s.sensors, {}, {}, o);
+  if (std::getenv("MW_DEBUG")) std::printf("%s\n", to_json(apart).dump(1).c_str());
+  o.bridge_min_overlap = 0.05;
+  const auto joined = register_multiway(s.scans, s.sensors, {}, {}, o);
+  if (std::getenv("MW_DEBUG")) std::printf("%s\n", to_json(joined).dump(1).c_str());
+  // Without bridges the ring falls into three groups, one of them scan 6 alone.
+  EXPECT_EQ(apart.scans[6].pairs_used, 0);
+  for (const auto& p : apart.pairs) EXPECT_FALSE(p.bridge);
+  // With them, two bridges (three groups) and every scan paired.
+  int bridges = 0;
+  for (const auto& p : joined.pairs) {
+    bridges += p.bridge ? 1 : 0;
+    if (p.bridge) {
+      EXPECT_TRUE(p.used);
+      EXPECT_LT(p.overlap, o.min_overlap);
+    }
+  }
+  EXPECT_EQ(bridges, 2);
+  for (const auto& sc : joined.scans) {
+    EXPECT_GE(sc.pairs_used, 1);
+    EXPECT_FALSE(sc.flagged) << sc.flag_reason;
+  }
+  const auto e_apart = per_scan_error(s, apart.corrections);
+  const auto e_joined = per_scan_error(s, joined.corrections);
+  double worst_apart = 0.0, worst_joined = 0.0;
+  for (std::size_t k = 0; k < e_joined.size(); ++k) {
+    worst_apart = std::max(worst_apart, e_apart[k]);
+    worst_joined = std::max(worst_joined, e_joined[k]);
+  }
+  if (std::getenv("MW_DEBUG")) std::printf("worst error: apart %.5f joined %.5f\n", worst_apart, worst_joined);
+  EXPECT_LT(worst_joined, 0.002);  // 4x the depth noise, as AlignsScansWithInjectedRobotErrors
+  EXPECT_LT(worst_joined, 0.5 * worst_apart);
+  EXPECT_TRUE(to_json(joined).at("pairs").at(0).contains("bridge"));
+  o.bridge_min_overlap = 0.3;  // above min_overlap
+  EXPECT_THROW(o.validate(), InputError);
+}

@@ -148,6 +148,7 @@ struct PairWork {
   Mat6 normal_matrix = Mat6::Zero();  // Σ J Jᵀ (unscaled) for the disagreement measure
   std::size_t n = 0;
   bool ok = false;
+  bool weak = false;  // overlaps by less than min_overlap, at least bridge_min_overlap: a bridge candidate
 };
 
 // Pairwise ICP of scan i (moved by Xi) to scan j (moved by Xj), then the normal matrix at the optimum.
@@ -211,7 +212,8 @@ void register_pair(const Prepared& a, const Eigen::Isometry3d& Xi, const Prepare
   w.report.overlap = a.target.size() <= b.target.size() ? share(a, toB, b) : share(b, toB.inverse(), a);
   if (n < 30 || w.report.overlap < o.min_overlap || r.rms_after > tight) {
     w.report.dropped = "no overlap";
-    return;
+    w.weak = n >= 30 && r.rms_after <= tight && o.bridge_min_overlap > 0.0 && w.report.overlap >= o.bridge_min_overlap;
+    if (!w.weak) return;
   }
   // Information: the normal matrix of the pair's correspondences over their noise, counted as
   // `information_points` independent points (neighbouring points of a scan share the scanner's
@@ -221,7 +223,7 @@ void register_pair(const Prepared& a, const Eigen::Isometry3d& Xi, const Prepare
   w.normal_matrix = H;
   w.n = n;
   w.information = H * (o.information_points / static_cast<double>(n)) / (sigma * sigma);
-  w.ok = true;
+  w.ok = !w.weak;
 }
 
 double disagreement(const PairWork& w, const Eigen::Isometry3d& Xi, const Eigen::Isometry3d& Xj) {
@@ -259,6 +261,9 @@ void MultiwayOptions::validate(const std::string& what) const {
       "{}: robot_rotation_sigma_deg must be in (0, 90) (got {})", what, robot_rotation_sigma_deg);
   AUTOSCAN_REQUIRE(min_overlap > 0.0 && min_overlap <= 1.0, "{}: min_overlap must be in (0, 1] (got {})", what,
                    min_overlap);
+  AUTOSCAN_REQUIRE(bridge_min_overlap >= 0.0 && bridge_min_overlap <= min_overlap,
+                   "{}: bridge_min_overlap must be in [0, min_overlap = {}] (got {})", what, min_overlap,
+                   bridge_min_overlap);
   AUTOSCAN_REQUIRE(std::isfinite(overlap_distance) && overlap_distance >= 0.0,
                    "{}: overlap_distance must be finite and >= 0 (got {})", what, overlap_distance);
   AUTOSCAN_REQUIRE(sample_points >= 100, "{}: sample_points must be at least 100 (got {})", what, sample_points);
@@ -515,6 +520,8 @@ class MultiwayRun {
   bool has_pairs() const { return !pairs_.empty(); }
   void round(int r);
   void finish();
+  // Promotes the weak pairs that join groups of scans the used pairs leave apart (bridge_min_overlap).
+  void add_bridges(std::vector<char>& active);
 
  private:
   double reach(std::size_t i) const {
@@ -773,6 +780,7 @@ void MultiwayRun::round(int r) {
   std::vector<char> active(pairs_.size(), 0);
   for (std::size_t p = 0; p < pairs_.size(); ++p)
     active[p] = work_[p].ok && !flagged_[pairs_[p].first] && !flagged_[pairs_[p].second];
+  add_bridges(active);
   double typical_rms = 0.0;
   const std::vector<Eigen::Isometry3d> solved = solve_with_rejection(active, typical_rms);
   for (std::size_t i = 0; i < n_; ++i)
@@ -788,6 +796,33 @@ void MultiwayRun::round(int r) {
   }
   res_.seconds_graph += gclock.seconds();
   res_.rounds = r + 1;
+}
+
+void MultiwayRun::add_bridges(std::vector<char>& active) {
+  // Groups: union-find over the scans, every fixed scan in one group (they share the world frame).
+  std::vector<std::size_t> parent(n_ + 1);
+  for (std::size_t i = 0; i <= n_; ++i) parent[i] = i;
+  auto node = [&](std::size_t i) { return free_[i] && !flagged_[i] ? i : n_; };
+  auto find = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::size_t p = 0; p < pairs_.size(); ++p)
+    if (active[p]) parent[find(node(pairs_[p].first))] = find(node(pairs_[p].second));
+  std::vector<std::size_t> weak;
+  for (std::size_t p = 0; p < pairs_.size(); ++p)
+    if (work_[p].weak && !flagged_[pairs_[p].first] && !flagged_[pairs_[p].second]) weak.push_back(p);
+  std::stable_sort(weak.begin(), weak.end(),
+                   [&](std::size_t a, std::size_t b) { return work_[a].report.overlap > work_[b].report.overlap; });
+  for (const std::size_t p : weak) {
+    const std::size_t a = find(node(pairs_[p].first)), b = find(node(pairs_[p].second));
+    if (a == b) continue;
+    parent[a] = b;
+    work_[p].ok = true;
+    work_[p].report.bridge = true;
+    work_[p].report.dropped.clear();
+    active[p] = 1;
+  }
 }
 
 void MultiwayRun::finish() {
@@ -866,9 +901,10 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
 
 nlohmann::json to_json(const MultiwayResult& r) {
   nlohmann::json pairs = nlohmann::json::array();
-  std::size_t used = 0;
+  std::size_t used = 0, bridging = 0;
   for (const auto& p : r.pairs) {
     used += p.used ? 1 : 0;
+    bridging += p.bridge && p.used ? 1 : 0;
     pairs.push_back({{"i", p.i},
                      {"j", p.j},
                      {"overlap", p.overlap},
@@ -877,6 +913,7 @@ nlohmann::json to_json(const MultiwayResult& r) {
                      {"correspondences", p.correspondences},
                      {"disagreement", p.disagreement},
                      {"used", p.used},
+                     {"bridge", p.bridge},
                      {"dropped", p.dropped.empty() ? nlohmann::json(nullptr) : nlohmann::json(p.dropped)}});
   }
   nlohmann::json scans = nlohmann::json::array();
@@ -894,6 +931,7 @@ nlohmann::json to_json(const MultiwayResult& r) {
                      {"correction_rotation_deg", s.correction_rotation_deg}});
   return {{"pairs_used", used},
           {"pairs_dropped", r.pairs.size() - used},
+          {"pairs_bridging", bridging},
           {"pairs_tested", r.pairs_tested},
           {"pairs_capped", r.pairs_capped},
           {"rounds", r.rounds},

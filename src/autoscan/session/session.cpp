@@ -880,9 +880,12 @@ struct Session::Impl {
     summary["scans_excluded"] = excluded;
     it.registration = std::move(summary);
     it.seconds["global_registration"] = res.seconds;
-    log::info("iteration {}: global registration of {} scans: {} pairs used, {} dropped, {} scans kept out ({:.2f} s)",
-              it.index, std::count(free.begin(), free.end(), 1), it.registration["pairs_used"].get<std::size_t>(),
-              it.registration["pairs_dropped"].get<std::size_t>(), excluded, res.seconds);
+    log::info(
+        "iteration {}: global registration of {} scans: {} pairs used ({} bridging), {} dropped, {} scans kept out "
+        "({:.2f} s)",
+        it.index, std::count(free.begin(), free.end(), 1), it.registration["pairs_used"].get<std::size_t>(),
+        it.registration["pairs_bridging"].get<std::size_t>(), it.registration["pairs_dropped"].get<std::size_t>(),
+        excluded, res.seconds);
   }
 
   // The support plane of the session: the first one a scan detected (supports.hpp).
@@ -1542,9 +1545,13 @@ SessionStatus Session::status() const {
   s.refused_views = static_cast<int>(m.refused.size());
   if (!m.iterations.empty() && m.iterations.back().registration.is_object()) {
     const auto& g = m.iterations.back().registration;
-    s.registration = {{"iteration", m.iterations.back().index},         {"pairs_used", g.value("pairs_used", 0)},
-                      {"pairs_dropped", g.value("pairs_dropped", 0)},   {"scans_moved", g.value("scans_moved", 0)},
-                      {"scans_excluded", g.value("scans_excluded", 0)}, {"seconds", g.value("seconds", 0.0)}};
+    s.registration = {{"iteration", m.iterations.back().index},
+                      {"pairs_used", g.value("pairs_used", 0)},
+                      {"pairs_dropped", g.value("pairs_dropped", 0)},
+                      {"pairs_bridging", g.value("pairs_bridging", 0)},
+                      {"scans_moved", g.value("scans_moved", 0)},
+                      {"scans_excluded", g.value("scans_excluded", 0)},
+                      {"seconds", g.value("seconds", 0.0)}};
   }
   return s;
 }
