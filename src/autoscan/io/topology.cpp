@@ -5,23 +5,10 @@
 #include <cstring>
 #include <numeric>
 
+#include "autoscan/core/union_find.hpp"
+
 namespace autoscan::io {
 namespace {
-
-/// Union-find with path halving.
-struct Dsu {
-  std::vector<int> parent;
-  explicit Dsu(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int find(int x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 /// For each vertex, the index of its welded representative (0..unique-1), bit-identical positions
 /// being one vertex.
@@ -61,17 +48,17 @@ struct Link {
 // Used vertices and components (faces sharing a vertex); returns the number of used vertices.
 std::size_t count_components(const std::vector<Tri>& faces, std::size_t nv, MeshTopology& t) {
   std::vector<char> used(nv, 0);
-  Dsu comp(nv);
+  UnionFind comp(nv);
   for (const auto& f : faces) {
     for (int k = 0; k < 3; ++k) used[f[k]] = 1;
-    comp.unite(f[0], f[1]);
-    comp.unite(f[0], f[2]);
+    comp.unite(static_cast<std::size_t>(f[0]), static_cast<std::size_t>(f[1]));
+    comp.unite(static_cast<std::size_t>(f[0]), static_cast<std::size_t>(f[2]));
   }
   std::size_t n_used = 0;
   for (std::size_t i = 0; i < nv; ++i)
     if (used[i]) {
       ++n_used;
-      if (comp.find(static_cast<int>(i)) == static_cast<int>(i)) ++t.connected_components;
+      if (comp.find(i) == i) ++t.connected_components;
     }
   t.isolated_vertices = nv - n_used;
   return n_used;
@@ -102,11 +89,7 @@ std::vector<Link> count_edges_and_fans(const std::vector<Tri>& faces, std::size_
   std::vector<Link> links;
   links.reserve(3 * nf / 2);
   std::vector<Spoke> spokes;
-  std::vector<int> fan;  // union-find over v's corners
-  auto fan_find = [&](int x) {
-    while (fan[x] != x) x = fan[x] = fan[fan[x]];
-    return x;
-  };
+  UnionFind fan;  // over v's corners
   t.consistently_oriented = true;
   for (std::size_t v = 0; v < nv; ++v) {
     const int b = first[v], e = first[v + 1];
@@ -120,13 +103,11 @@ std::vector<Link> count_edges_and_fans(const std::vector<Tri>& faces, std::size_
     std::sort(spokes.begin(), spokes.end(), [](const Spoke& x, const Spoke& y) {
       return x.other != y.other ? x.other < y.other : x.local < y.local;
     });
-    fan.resize(static_cast<std::size_t>(e - b));
-    std::iota(fan.begin(), fan.end(), 0);
+    fan.reset(static_cast<std::size_t>(e - b));
     for (std::size_t i = 0; i < spokes.size();) {
       std::size_t j = i + 1;
       while (j < spokes.size() && spokes[j].other == spokes[i].other) {
-        const int x = fan_find(spokes[j].local), y = fan_find(spokes[i].local);
-        if (x != y) fan[std::max(x, y)] = std::min(x, y);
+        fan.unite(static_cast<std::size_t>(spokes[j].local), static_cast<std::size_t>(spokes[i].local));
         ++j;
       }
       if (static_cast<int>(v) < spokes[i].other) {
@@ -146,7 +127,7 @@ std::vector<Link> count_edges_and_fans(const std::vector<Tri>& faces, std::size_
       i = j;
     }
     int fans = 0;
-    for (int i = 0; i < e - b; ++i) fans += fan_find(i) == i ? 1 : 0;
+    for (std::size_t i = 0; i < fan.size(); ++i) fans += fan.find(i) == i ? 1 : 0;
     if (fans > 1) ++t.non_manifold_vertices;
   }
   return links;

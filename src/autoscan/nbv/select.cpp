@@ -12,6 +12,7 @@
 #include <queue>
 
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/union_find.hpp"
 #include "autoscan/nbv/internal.hpp"
 
 namespace autoscan::nbv::detail {
@@ -35,24 +36,16 @@ std::vector<std::vector<std::uint32_t>> components(const std::vector<std::uint32
   std::vector<Vec3> sub(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) sub[i] = iso.p[pts[i]];
   const spatial::KdTree tree(sub);
-  std::vector<std::uint32_t> parent(pts.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
+  UnionFind groups(pts.size());
   std::vector<std::pair<spatial::KdTree::Index, double>> m;
   for (std::uint32_t i = 0; i < pts.size(); ++i) {
     tree.radius(sub[i], link, m);
-    for (const auto& [j, d] : m) {
-      const std::uint32_t a = find(i), b = find(j);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
+    for (const auto& [j, d] : m) groups.unite(i, j);
   }
   std::vector<std::vector<std::uint32_t>> out;
   std::vector<int> slot(pts.size(), -1);
   for (std::uint32_t i = 0; i < pts.size(); ++i) {
-    const std::uint32_t r = find(i);
+    const std::size_t r = groups.find(i);
     if (slot[r] < 0) {
       slot[r] = static_cast<int>(out.size());
       out.emplace_back();

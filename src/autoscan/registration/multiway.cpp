@@ -15,6 +15,7 @@
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/timer.hpp"
+#include "autoscan/core/union_find.hpp"
 #include "autoscan/registration/pose_graph.hpp"
 #include "autoscan/spatial/kdtree.hpp"
 
@@ -799,25 +800,18 @@ void MultiwayRun::round(int r) {
 }
 
 void MultiwayRun::add_bridges(std::vector<char>& active) {
-  // Groups: union-find over the scans, every fixed scan in one group (they share the world frame).
-  std::vector<std::size_t> parent(n_ + 1);
-  for (std::size_t i = 0; i <= n_; ++i) parent[i] = i;
-  auto node = [&](std::size_t i) { return free_[i] && !flagged_[i] ? i : n_; };
-  auto find = [&](std::size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
+  // Groups of scans the used pairs join, every fixed scan in one group (they share the world frame).
+  UnionFind groups(n_ + 1);
+  auto node = [&](std::size_t i) { return free_[i] ? i : n_; };
   for (std::size_t p = 0; p < pairs_.size(); ++p)
-    if (active[p]) parent[find(node(pairs_[p].first))] = find(node(pairs_[p].second));
+    if (active[p]) groups.unite(node(pairs_[p].first), node(pairs_[p].second));
   std::vector<std::size_t> weak;
   for (std::size_t p = 0; p < pairs_.size(); ++p)
     if (work_[p].weak && !flagged_[pairs_[p].first] && !flagged_[pairs_[p].second]) weak.push_back(p);
   std::stable_sort(weak.begin(), weak.end(),
                    [&](std::size_t a, std::size_t b) { return work_[a].report.overlap > work_[b].report.overlap; });
   for (const std::size_t p : weak) {
-    const std::size_t a = find(node(pairs_[p].first)), b = find(node(pairs_[p].second));
-    if (a == b) continue;
-    parent[a] = b;
+    if (!groups.unite(node(pairs_[p].first), node(pairs_[p].second))) continue;
     work_[p].ok = true;
     work_[p].report.bridge = true;
     work_[p].report.dropped.clear();

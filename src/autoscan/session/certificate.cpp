@@ -10,6 +10,7 @@
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/union_find.hpp"
 #include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::session {
@@ -17,14 +18,6 @@ namespace autoscan::session {
 using nlohmann::json;
 
 namespace {
-
-int find_root(std::vector<int>& parent, int x) {
-  while (parent[static_cast<std::size_t>(x)] != x) {
-    parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
-    x = parent[static_cast<std::size_t>(x)];
-  }
-  return x;
-}
 
 bool settled(const CertificateRegion& r) { return r.reason == "unreachable" || r.reason == "too_noisy"; }
 
@@ -234,8 +227,7 @@ std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::ve
     for (int v : tri) n += on_support[static_cast<std::size_t>(v)] ? 1 : 0;
     return n >= 2 ? 1 : 0;
   };
-  std::vector<int> parent(2 * nv);
-  std::iota(parent.begin(), parent.end(), 0);
+  UnionFind groups(2 * nv);
   double edge_sum = 0.0;
   for (std::size_t t = 0; t < nf; ++t) {
     const auto& tri = mesh.faces[t];
@@ -251,11 +243,9 @@ std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::ve
     if (face_f[t] < c.threshold) {
       low[t] = 1;
       const int offset = kind_of(tri) * static_cast<int>(nv);
-      const int r0 = find_root(parent, tri[0] + offset);
-      for (int k = 1; k < 3; ++k) {
-        const int rk = find_root(parent, tri[static_cast<std::size_t>(k)] + offset);
-        if (rk != r0) parent[static_cast<std::size_t>(rk)] = r0;
-      }
+      for (int k = 1; k < 3; ++k)
+        groups.unite(static_cast<std::size_t>(tri[0] + offset),
+                     static_cast<std::size_t>(tri[static_cast<std::size_t>(k)] + offset));
     }
   }
   c.edge_length = edge_sum / (3.0 * static_cast<double>(nf));
@@ -266,12 +256,12 @@ std::vector<LowComponent> low_components(const TriangleMesh& mesh, const std::ve
   for (std::size_t t = 0; t < nf; ++t) {
     if (!low[t]) continue;
     const auto& tri = mesh.faces[t];
-    const int root = find_root(parent, tri[0] + kind_of(tri) * static_cast<int>(nv));
-    if (slot[static_cast<std::size_t>(root)] < 0) {
-      slot[static_cast<std::size_t>(root)] = static_cast<int>(acc.size());
+    const std::size_t root = groups.find(static_cast<std::size_t>(tri[0] + kind_of(tri) * static_cast<int>(nv)));
+    if (slot[root] < 0) {
+      slot[root] = static_cast<int>(acc.size());
       acc.emplace_back();
     }
-    LowComponent& a = acc[static_cast<std::size_t>(slot[static_cast<std::size_t>(root)])];
+    LowComponent& a = acc[static_cast<std::size_t>(slot[root])];
     const Vec3 centre =
         (mesh.vertices[static_cast<std::size_t>(tri[0])] + mesh.vertices[static_cast<std::size_t>(tri[1])] +
          mesh.vertices[static_cast<std::size_t>(tri[2])]) /
