@@ -166,6 +166,34 @@ TEST(Coverage, SplitByTheScannableReference) {
   EXPECT_EQ(coverage_split(upper, far_away, sphere, 0.005, 5000).scannable_coverage, 1.0);
 }
 
+// The probe (the per-view coverage curve) is coverage_split() with its samples drawn once: the same
+// numbers, bit for bit, for every scanned cloud and with or without a reference.
+TEST(Coverage, ProbeEqualsCoverageSplit) {
+  const TriangleMesh sphere = icosphere(0.5, 4);
+  Rng rng(79);
+  const PointCloud dense = sample_surface(sphere, 60000, rng);
+  PointCloud upper, lower_cap;
+  for (const auto& p : dense.positions) {
+    if (p.z() > 0) upper.positions.push_back(p);
+    if (p.z() < -0.25) lower_cap.positions.push_back(p);
+  }
+  const CoverageProbe probe(sphere, &upper, 0.005, 20000, 3);
+  EXPECT_EQ(probe.samples(), 20000u);
+  for (const PointCloud* scanned : std::vector<const PointCloud*>{&dense, &upper, &lower_cap}) {
+    const auto a = probe.measure(*scanned);
+    const auto b = coverage_split(*scanned, upper, sphere, 0.005, 20000, 3);
+    EXPECT_EQ(a.coverage, b.coverage);
+    EXPECT_EQ(a.scannable_share, b.scannable_share);
+    EXPECT_EQ(a.scannable_coverage, b.scannable_coverage);
+  }
+  EXPECT_EQ(probe.measure(PointCloud{}).coverage, 0.0);
+  EXPECT_EQ(probe.measure(PointCloud{}).scannable_coverage, 0.0);
+  const CoverageProbe all(sphere, nullptr, 0.005, 20000, 3);
+  EXPECT_EQ(all.measure(upper).coverage, coverage(upper, sphere, 0.005, 20000, 3));
+  EXPECT_EQ(all.measure(upper).scannable_coverage, all.measure(upper).coverage);
+  EXPECT_EQ(all.measure(upper).scannable_share, 1.0);
+}
+
 TEST(EvaluateCloud, PointsOnALargerSphere) {
   const TriangleMesh truth = icosphere(0.5, 6);
   Rng rng(5);

@@ -274,6 +274,46 @@ CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& refere
   return out;
 }
 
+CoverageProbe::CoverageProbe(const TriangleMesh& truth, const PointCloud* reference, double tau, std::size_t samples,
+                             std::uint64_t seed) {
+  EvalOptions o;
+  o.tau = tau;
+  o.samples = samples;
+  o.validate();
+  tau_abs_ = tau * truth_diagonal(truth);
+  samples_ = sample(truth, samples, seed, 0).positions;  // the samples of coverage() and coverage_split()
+  scannable_.assign(samples_.size(), 1);
+  scannable_count_ = samples_.size();
+  if (reference) {
+    reference->validate("scannable reference cloud");
+    const auto dr = nearest_point_distances(reference->positions, samples_);
+    scannable_count_ = 0;
+    for (std::size_t i = 0; i < dr.size(); ++i) {
+      scannable_[i] = dr[i] <= tau_abs_ ? 1 : 0;
+      scannable_count_ += scannable_[i];
+    }
+  }
+}
+
+CoverageSplit CoverageProbe::measure(const PointCloud& scanned) const {
+  scanned.validate("scanned point cloud");
+  CoverageSplit out;
+  const double n = static_cast<double>(samples_.size());
+  out.scannable_share = static_cast<double>(scannable_count_) / n;
+  out.scannable_coverage = scannable_count_ ? 0.0 : 1.0;
+  if (scanned.empty()) return out;
+  const auto ds = nearest_point_distances(scanned.positions, samples_);
+  std::size_t covered = 0, both = 0;
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    const bool c = ds[i] <= tau_abs_;
+    covered += c;
+    both += c && scannable_[i];
+  }
+  out.coverage = static_cast<double>(covered) / n;
+  if (scannable_count_) out.scannable_coverage = static_cast<double>(both) / static_cast<double>(scannable_count_);
+  return out;
+}
+
 void write_histogram_csv(const std::filesystem::path& path, const ErrorHistogram& h) {
   AUTOSCAN_REQUIRE(h.edges.size() == h.share.size() + 1 && h.counts.size() == h.share.size(),
                    "{}: inconsistent histogram", path.string());

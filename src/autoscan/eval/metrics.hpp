@@ -150,6 +150,27 @@ struct CoverageSplit {
 CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& reference, const TriangleMesh& truth,
                              double tau = 0.005, std::size_t samples = 200000, std::uint64_t seed = 1);
 
+/// coverage_split() measured again and again on one truth (the per-view coverage curve, docs/results.md
+/// "Coverage curves"): the truth samples and which of them are scannable are drawn and decided once, so
+/// a measurement costs one kd-tree over `scanned` and one query per sample. measure(scanned) equals
+/// coverage_split(scanned, reference, truth, tau, samples, seed) exactly; without a reference,
+/// scannable_share is 1 and scannable_coverage equals coverage (every sample counts).
+class CoverageProbe {
+ public:
+  /// `reference` may be null (no scannable split). Throws InputError for a truth without faces or bad
+  /// tau / samples.
+  CoverageProbe(const TriangleMesh& truth, const PointCloud* reference, double tau = 0.005,
+                std::size_t samples = 200000, std::uint64_t seed = 1);
+  CoverageSplit measure(const PointCloud& scanned) const;
+  std::size_t samples() const { return samples_.size(); }
+
+ private:
+  std::vector<Vec3> samples_;
+  std::vector<char> scannable_;
+  std::size_t scannable_count_ = 0;
+  double tau_abs_ = 0;
+};
+
 /// Colour error of a coloured reconstruction against a coloured truth (docs/colour.md): for each
 /// vertex of `recon` (with vertex colours) within `max_distance` × diagonal(truth) of the truth, the
 /// plain RGB Euclidean distance (0-255 per channel, so 0 to 441.7) between its colour and the truth's
