@@ -93,9 +93,9 @@ int main(int argc, char** argv) {
   bool global = true;
   int depth = 0;
   double prior_scale = 1.0, info_points = 0.0, robust = -1.0, trim = 0.0, incidence = 0.0, power = -1.0, disagree = 0.0,
-         min_overlap = 0.0;
+         min_overlap = 0.0, boundary = -1.0;
   std::size_t samples = 0;
-  int rounds = 0, cap = -1;
+  int rounds = 0, cap = -1, normal_k = -1, anchor_points = -1;
   std::string json_out;
   for (int a = 3; a < argc; ++a) {
     const std::string k = argv[a];
@@ -136,6 +136,12 @@ int main(int argc, char** argv) {
       cap = std::stoi(next());
     else if (k == "--min-overlap")
       min_overlap = std::stod(next());
+    else if (k == "--k")
+      normal_k = std::stoi(next());
+    else if (k == "--anchor-points")
+      anchor_points = std::stoi(next());
+    else if (k == "--boundary")
+      boundary = std::stod(next());
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -195,6 +201,9 @@ int main(int argc, char** argv) {
   if (incidence > 0) opt.multiway.max_incidence_deg = incidence;
   if (disagree > 0) opt.multiway.max_disagreement = disagree;
   if (min_overlap > 0) opt.multiway.min_overlap = min_overlap;
+  if (normal_k >= 0) opt.multiway.normal_k = normal_k;
+  if (anchor_points >= 0) opt.multiway.surface.anchor_points = anchor_points;
+  if (boundary >= 0) opt.multiway.surface.boundary_shift = boundary;
   if (samples > 0) {
     opt.multiway.sample_points = samples;
     opt.multiway.target_points = std::max(samples, opt.multiway.target_points);

@@ -69,6 +69,7 @@ PreparedScan fit_scan(const PointCloud& scan, const Vec3& sensor, const Multiway
   p.noise = fit.noise;
   all.normals = std::move(fit.normals);
   std::vector<Vec3> projected = std::move(fit.projected);
+  const std::vector<char> boundary = std::move(fit.boundary);
   // Outliers (far from their neighbours' surface) stay out: beyond 4 times the median distance.
   std::vector<double> off(all.size());
   for (std::size_t i = 0; i < all.size(); ++i) off[i] = (all.positions[i] - projected[i]).norm();
@@ -83,7 +84,7 @@ PreparedScan fit_scan(const PointCloud& scan, const Vec3& sensor, const Multiway
     const Vec3 ray = sensor - all.positions[i];
     const double len = ray.norm();
     const double cosi = len > 0.0 ? std::abs(all.normals[i].dot(ray)) / len : 1.0;
-    if (cosi < min_cos || (off_limit > 0.0 && off[i] > off_limit)) continue;
+    if (cosi < min_cos || (off_limit > 0.0 && off[i] > off_limit) || boundary[i]) continue;
     p.positions.push_back(all.positions[i]);
     p.normals.push_back(all.normals[i]);
     // Depth precision 1/σ², σ ∝ 1 + gain·tan(incidence) (the scanner noise model's incidence term).
@@ -252,6 +253,8 @@ void SurfaceFitOptions::validate(const std::string& what) const {
   AUTOSCAN_REQUIRE(probe_k >= 10 && probe_k <= 1000, "{}: probe_k must be in [10, 1000] (got {})", what, probe_k);
   AUTOSCAN_REQUIRE(anchor_points >= 0 && anchor_points <= 1000, "{}: anchor_points must be in [0, 1000] (got {})", what,
                    anchor_points);
+  AUTOSCAN_REQUIRE(std::isfinite(boundary_shift) && boundary_shift >= 0.0 && boundary_shift < 1.0,
+                   "{}: boundary_shift must be in [0, 1) (got {})", what, boundary_shift);
 }
 
 void MultiwayOptions::validate(const std::string& what) const {
@@ -384,6 +387,7 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
   SurfaceFit fit;
   fit.normals.assign(points.size(), Vec3::UnitZ());
   fit.projected.assign(points.begin(), points.end());
+  fit.boundary.assign(points.size(), 0);
   fit.neighbors = o.k > 0 ? o.k : o.k_min;
   if (points.size() < 3) return fit;
   const spatial::KdTree nn(points, kKdLeafSize);
@@ -426,13 +430,20 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
   std::vector<std::size_t> anchors;
   for (std::size_t i = 0; i < points.size(); i += stride) anchors.push_back(i);
   std::vector<SurfacePatch> patch(anchors.size());
-  std::vector<char> fitted(anchors.size(), 0);
+  std::vector<char> fitted(anchors.size(), 0), edge(anchors.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, anchors.size(), 64), [&](const auto& r) {
     std::vector<std::size_t> id;
     std::vector<double> dd;
     for (std::size_t a = r.begin(); a != r.end(); ++a) {
-      const std::size_t n = nn.knn(points[anchors[a]], k, id, dd);
+      const Vec3& p = points[anchors[a]];
+      const std::size_t n = nn.knn(p, k, id, dd);
       fitted[a] = fit_patch(points, std::span(id.data(), n), o.quadric, patch[a]) ? 1 : 0;
+      if (fitted[a] && o.boundary_shift > 0.0 && n > 0) {
+        // The neighbours' mean, in the tangent plane, against the neighbourhood's radius.
+        Vec3 shift = patch[a].mean - p;
+        shift -= shift.dot(patch[a].e0) * patch[a].e0;
+        edge[a] = shift.norm() > o.boundary_shift * std::sqrt(dd[n - 1]) ? 1 : 0;
+      }
     }
   });
   std::unique_ptr<spatial::KdTree> anchor_tree;
@@ -451,6 +462,7 @@ SurfaceFit fit_scan_surface(std::span<const Vec3> points, const Vec3& sensor, co
         nrm = ls.normal;
         fit.projected[i] = ls.foot;
       }
+      fit.boundary[i] = edge[a];
       if (nrm.dot(sensor - points[i]) < 0.0) nrm = -nrm;
       fit.normals[i] = nrm;
     }

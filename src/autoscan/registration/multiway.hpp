@@ -51,6 +51,12 @@ struct SurfaceFitOptions {
   /// point stays deep inside the neighbourhood its surface was fitted to. 0: every point is fitted
   /// (k fits of k neighbours each: the registration's largest cost at noise, measured).
   int anchor_points = 50;
+  /// Boundary band: a point whose fitted neighbourhood lies to one side of it (the neighbours' mean,
+  /// in the tangent plane, farther than this share of the neighbourhood's radius from the point; about
+  /// 0.42 at a straight edge, near 0 inside) is marked `boundary`. Its surface is an extrapolation,
+  /// and a range scanner's depth is least accurate at the edges of what it saw (silhouettes, shadow
+  /// and occlusion edges). 0 = no band.
+  double boundary_shift = 0.0;
   /// The JSON keys (docs/options.md); the ranges are checked by validate().
   template <class V>
   void visit_fields(V& v) {
@@ -60,6 +66,7 @@ struct SurfaceFitOptions {
     v("k_max", k_max);
     v("probe_k", probe_k);
     v("anchor_points", anchor_points);
+    v("boundary_shift", boundary_shift);
   }
   /// Throws InputError naming the option for values out of range.
   void validate(const std::string& what = "surface") const;
@@ -68,6 +75,7 @@ struct SurfaceFitOptions {
 struct SurfaceFit {
   std::vector<Vec3> normals;    ///< oriented towards the sensor
   std::vector<Vec3> projected;  ///< each point moved onto its fitted surface (a denoised copy)
+  std::vector<char> boundary;   ///< in the boundary band (SurfaceFitOptions::boundary_shift); all 0 without
   int neighbors = 0;            ///< k used
   double noise = 0.0;           ///< σ̂ (world units)
   double spacing = 0.0;         ///< s (world units)
