@@ -454,6 +454,24 @@ TEST(NbvPlan, NoLowConfidencePointsGivesNoViewsAndSaysSo) {
   EXPECT_NE(r.diagnostics.messages[0].find("no low-confidence"), std::string::npos);
 }
 
+// A field that reads "inside" away from the data (a Poisson field from one view) must not mark the
+// whole shell of candidate positions inside: the watertight mesh's test decides where they disagree
+// (issue 43: from one start scan of bunny00 the planner had no candidate at all, stop "no_views").
+TEST(NbvPlan, AFieldWrongAwayFromTheDataLeavesTheCandidates) {
+  struct InsideEverywhere final : ImplicitField {
+    double value(const Vec3&) const override { return 1.0; }
+    Vec3 gradient(const Vec3&) const override { return Vec3::UnitZ(); }
+    double iso_value() const override { return 0.0; }
+  } wrong;
+  CapSphere s;
+  s.iso = sphere_points(Vec3::Zero(), 0.3, 500, [](const Vec3&) { return 0.0; });
+  NbvOptions o;
+  o.grid_resolution = 40;
+  const PlanResult r = plan_next_best_views(s.mesh, s.iso, ScannerSpec{}, Rig{}, std::nullopt, o, &wrong);
+  EXPECT_GT(r.diagnostics.candidates, 0u);
+  EXPECT_FALSE(r.views.empty());
+}
+
 TEST(NbvPlan, BadInputIsInputError) {
   CapSphere s;
   NbvOptions o;
