@@ -136,15 +136,22 @@ TEST(Coverage, DenseSamplesCoverAndHalfCoversHalf) {
   EXPECT_EQ(coverage(PointCloud{}, sphere), 0.0);
 }
 
+// Dense samples of a sphere of radius 0.5, its upper half (z > 0) and its lower cap (z < -0.25).
+struct SphereParts {
+  PointCloud dense, upper, lower_cap;
+  SphereParts(const TriangleMesh& sphere, std::size_t n, std::uint64_t seed) {
+    Rng rng(seed);
+    dense = sample_surface(sphere, n, rng);
+    for (const auto& p : dense.positions) {
+      if (p.z() > 0) upper.positions.push_back(p);
+      if (p.z() < -0.25) lower_cap.positions.push_back(p);
+    }
+  }
+};
+
 TEST(Coverage, SplitByTheScannableReference) {
   const TriangleMesh sphere = icosphere(0.5, 5);
-  Rng rng(78);
-  const PointCloud dense = sample_surface(sphere, 200000, rng);
-  PointCloud upper, lower_cap;
-  for (const auto& p : dense.positions) {
-    if (p.z() > 0) upper.positions.push_back(p);
-    if (p.z() < -0.25) lower_cap.positions.push_back(p);
-  }
+  const auto [dense, upper, lower_cap] = SphereParts(sphere, 200000, 78);
   // Scanned everything, only the upper half scannable: all of the scannable part is covered.
   auto c = coverage_split(dense, upper, sphere, 0.005, 50000);
   EXPECT_GT(c.coverage, 0.999);
@@ -170,13 +177,7 @@ TEST(Coverage, SplitByTheScannableReference) {
 // numbers, bit for bit, for every scanned cloud and with or without a reference.
 TEST(Coverage, ProbeEqualsCoverageSplit) {
   const TriangleMesh sphere = icosphere(0.5, 4);
-  Rng rng(79);
-  const PointCloud dense = sample_surface(sphere, 60000, rng);
-  PointCloud upper, lower_cap;
-  for (const auto& p : dense.positions) {
-    if (p.z() > 0) upper.positions.push_back(p);
-    if (p.z() < -0.25) lower_cap.positions.push_back(p);
-  }
+  const auto [dense, upper, lower_cap] = SphereParts(sphere, 60000, 79);
   const CoverageProbe probe(sphere, &upper, 0.005, 20000, 3);
   EXPECT_EQ(probe.samples(), 20000u);
   for (const PointCloud* scanned : std::vector<const PointCloud*>{&dense, &upper, &lower_cap}) {

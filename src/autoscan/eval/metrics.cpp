@@ -235,43 +235,12 @@ CloudEvalResult evaluate_cloud(const PointCloud& cloud, const TriangleMesh& trut
 
 double coverage(const PointCloud& scanned, const TriangleMesh& truth, double tau, std::size_t samples,
                 std::uint64_t seed) {
-  EvalOptions o;
-  o.tau = tau;
-  o.samples = samples;
-  o.validate();
-  const double tau_abs = tau * truth_diagonal(truth);
-  scanned.validate("scanned point cloud");
-  if (scanned.empty()) return 0.0;
-  const PointCloud truth_samples = sample(truth, samples, seed, 0);
-  return share_within(nearest_point_distances(scanned.positions, truth_samples.positions), tau_abs);
+  return CoverageProbe(truth, nullptr, tau, samples, seed).measure(scanned).coverage;
 }
 
 CoverageSplit coverage_split(const PointCloud& scanned, const PointCloud& reference, const TriangleMesh& truth,
                              double tau, std::size_t samples, std::uint64_t seed) {
-  EvalOptions o;
-  o.tau = tau;
-  o.samples = samples;
-  o.validate();
-  scanned.validate("scanned point cloud");
-  reference.validate("scannable reference cloud");
-  const double tau_abs = tau * truth_diagonal(truth);
-  // Same samples as coverage(): the two figures are directly comparable.
-  const PointCloud truth_samples = sample(truth, samples, seed, 0);
-  const auto ds = nearest_point_distances(scanned.positions, truth_samples.positions);
-  const auto dr = nearest_point_distances(reference.positions, truth_samples.positions);
-  std::size_t covered = 0, scannable = 0, both = 0;
-  for (std::size_t i = 0; i < ds.size(); ++i) {
-    const bool c = ds[i] <= tau_abs, r = dr[i] <= tau_abs;
-    covered += c;
-    scannable += r;
-    both += c && r;
-  }
-  const double n = static_cast<double>(ds.size());
-  CoverageSplit out;
-  out.coverage = static_cast<double>(covered) / n;
-  out.scannable_share = static_cast<double>(scannable) / n;
-  out.scannable_coverage = scannable ? static_cast<double>(both) / static_cast<double>(scannable) : 1.0;
-  return out;
+  return CoverageProbe(truth, &reference, tau, samples, seed).measure(scanned);
 }
 
 CoverageProbe::CoverageProbe(const TriangleMesh& truth, const PointCloud* reference, double tau, std::size_t samples,

@@ -167,17 +167,14 @@ std::vector<VoxelState> classify_voxels(const GridGeometry& grid, const IsoData&
       }
       ++ncomp;
     }
-    // One test per component, but not the field's alone: away from the data (a model from one view,
-    // the component's first voxel at a corner of the box) the Poisson field may sit on either side of
-    // the iso-value, and one wrong answer would mark the whole shell around the object "inside" (issue
-    // 43: from a single start scan of bunny00, every voxel inside, largest g = 0, stop "no_views").
-    // Where the field and the mesh's ray-cast test disagree, the mesh (watertight) decides.
+    // One test per component, by the watertight mesh's ray casts rather than the field: away from the
+    // data (a model from one view, the component's first voxel at a corner of the box) the Poisson
+    // field may sit on either side of the iso-value, and one wrong answer marks the whole shell around
+    // the object "inside" (issue 43: from a single start scan of bunny00, every voxel inside, largest
+    // g = 0, stop "no_views"). Where field and mesh agree this is the same answer.
     std::vector<char> comp_inside(reps.size(), 0);
-    tbb::parallel_for(std::size_t(0), reps.size(), [&](std::size_t c) {
-      const Vec3 p = grid.center(reps[c]);
-      const bool by_field = is_inside(p);
-      comp_inside[c] = (field && by_field != scene.inside(p)) ? (scene.inside(p) ? 1 : 0) : (by_field ? 1 : 0);
-    });
+    tbb::parallel_for(std::size_t(0), reps.size(),
+                      [&](std::size_t c) { comp_inside[c] = scene.inside(grid.center(reps[c])) ? 1 : 0; });
     for (std::size_t v = 0; v < nvox; ++v)
       if (comp[v] >= 0 && comp_inside[static_cast<std::size_t>(comp[v])]) state[v] = VoxelState::inside;
   } else {
