@@ -26,10 +26,10 @@ using autoscan::simulation::SimulateOptions;
 struct SimCli {
   std::string mesh, out, config, planner, rig, paint, scene;
   // Not given: the configuration's value (every given value is validated, none means "default").
-  std::optional<int> max_views, max_iterations, depth;
+  std::optional<int> max_views, max_iterations, depth, blind_views, views_per_iteration;
   std::optional<double> noise;
   std::optional<std::uint64_t> seed;
-  bool resume = false, no_report = false, no_eval = false, no_support = false;
+  bool resume = false, no_report = false, no_eval = false, no_support = false, random_start = false;
   std::string checkpoints;
 };
 
@@ -38,6 +38,15 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
                   "View planner: poisson (ours), random, sphere, density, curvature, visibility, pvs");
   sub->add_option("--max-views", o.max_views, "Budget of next-best-view scans (default 200)");
   sub->add_option("--max-iterations", o.max_iterations, "Budget of iterations (default 15)");
+  sub->add_option("--views-per-iteration", o.views_per_iteration,
+                  "Most next-best views planned per iteration (nbv.max_views, default 10; 1 plans one view at a "
+                  "time)");
+  sub->add_option("--blind-views", o.blind_views,
+                  "Views of the blind scan (default 8; 1 starts from a single scan, the curve protocol of "
+                  "docs/benchmarks.md)");
+  sub->add_flag("--random-start", o.random_start,
+                "The blind scan's first azimuth drawn from --seed (blind.random_start): each seed starts from "
+                "another side");
   sub->add_option("--noise", o.noise, "Scanner noise magnitude in [0, 1] (depth noise, outliers, pose error)");
   sub->add_option("--seed", o.seed, "Seed of every random choice (default 42)");
   sub->add_option("--depth", o.depth, "Poisson octree depth (default 8)");
@@ -74,6 +83,18 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
     base.scanner.noise.magnitude = *o.noise;
   }
   if (o.seed) base.session.seed = *o.seed;
+  if (o.views_per_iteration) {
+    AUTOSCAN_REQUIRE(*o.views_per_iteration >= 1, "--views-per-iteration must be >= 1, got {}", *o.views_per_iteration);
+    base.session.nbv.max_views = *o.views_per_iteration;
+  }
+  if (o.blind_views) {
+    AUTOSCAN_REQUIRE(*o.blind_views >= 1, "--blind-views must be >= 1, got {}", *o.blind_views);
+    base.blind.views = *o.blind_views;
+    // One start view: one ring (the first elevation), not a view on each of the rings.
+    if (*o.blind_views < static_cast<int>(base.blind.elevations_deg.size()))
+      base.blind.elevations_deg.resize(static_cast<std::size_t>(*o.blind_views));
+  }
+  if (o.random_start) base.blind.random_start = true;
   if (o.depth) base.session.poisson.depth = *o.depth;  // range-checked by base.validate() below
   if (!o.rig.empty()) {
     // The preset's fixtures (a turntable disc, a table), unless the config declared its own.
@@ -133,6 +154,11 @@ void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const s
   if (o.max_iterations && *o.max_iterations != rec.session.max_iterations)
     refuse("--max-iterations", std::to_string(*o.max_iterations), std::to_string(rec.session.max_iterations));
   if (!o.paint.empty() && o.paint != rec.paint) refuse("--paint", o.paint, rec.paint);
+  if (o.views_per_iteration && *o.views_per_iteration != rec.session.nbv.max_views)
+    refuse("--views-per-iteration", std::to_string(*o.views_per_iteration), std::to_string(rec.session.nbv.max_views));
+  if (o.blind_views && *o.blind_views != rec.blind.views)
+    refuse("--blind-views", std::to_string(*o.blind_views), std::to_string(rec.blind.views));
+  if (o.random_start && !rec.blind.random_start) refuse("--random-start", "", "a fixed start");
   if (!o.scene.empty() && o.scene != rec.scene) refuse("--scene", o.scene, rec.scene.empty() ? "a mesh" : rec.scene);
   if (!o.rig.empty() && autoscan::simulation::rig_preset(o.rig).kind != rec.rig.kind)
     refuse("--rig", o.rig, autoscan::Rig::kind_name(rec.rig.kind));

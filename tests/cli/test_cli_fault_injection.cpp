@@ -321,6 +321,8 @@ TEST(FaultInjection, ResumeRefusesOptionsThatWouldChangeTheRun) {
       {"--planner random", "--planner random", "--planner poisson"},
       {"--depth 6", "--depth 6", "--depth 5"},
       {"--max-views 9", "--max-views 9", "--max-views 3"},
+      {"--blind-views 1", "--blind-views 1", "--blind-views 8"},
+      {"--views-per-iteration 1", "--views-per-iteration 1", "--views-per-iteration 10"},
       {"--config " + config.string(), "/session/seed", "42"},
   };
   for (const auto& c : cases) {

@@ -106,7 +106,9 @@ TEST(CliHardening, NegativeOrOutOfRangeOptionsAreRefusedBeforeAnyWork) {
                   {sim + " --depth -1", "depth"},
                   {sim + " --depth 99", "depth"},
                   {sim + " --noise -1", "--noise"},
-                  {sim + " --seed -2", "--seed"}},
+                  {sim + " --seed -2", "--seed"},
+                  {sim + " --blind-views 0", "--blind-views"},
+                  {sim + " --views-per-iteration 0", "--views-per-iteration"}},
                  out);
   EXPECT_FALSE(fs::exists(sim_out / "session.json"));
   // The largest scan id a PLY float holds exactly is accepted.

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <numbers>
+#include <set>
 #include <unordered_map>
 
 #include "autoscan/core/error.hpp"
@@ -445,6 +446,27 @@ TEST(BlindScan, PosesRingTheObjectAtTheOptimalDistance) {
   bad.views = 4;
   bad.elevations_deg = {95.0};
   EXPECT_THROW(blind_scan_poses(object, spec, bad), InputError);
+}
+
+// blind.random_start: the first azimuth drawn from the seed, the same for a seed, in [0, 360).
+TEST(BlindScan, RandomStartIsDrawnFromTheSeed) {
+  BlindScanOptions o;
+  o.views = 1;
+  o.elevations_deg = {20.0};
+  EXPECT_EQ(o.seeded(7).azimuth_offset_deg, 0.0);  // off: unchanged
+  o.random_start = true;
+  const auto a = o.seeded(7), b = o.seeded(7), c = o.seeded(8);
+  EXPECT_FALSE(a.random_start);
+  EXPECT_EQ(a.azimuth_offset_deg, b.azimuth_offset_deg);
+  EXPECT_NE(a.azimuth_offset_deg, c.azimuth_offset_deg);
+  std::set<int> sides;  // 16 seeds start from several of the four quadrants
+  for (std::uint64_t s = 0; s < 16; ++s) {
+    const double az = o.seeded(s).azimuth_offset_deg;
+    EXPECT_GE(az, 0.0);
+    EXPECT_LT(az, 360.0);
+    sides.insert(static_cast<int>(az / 90.0));
+  }
+  EXPECT_GE(sides.size(), 3u);
 }
 
 TEST(BlindScan, MergesTheScansWithTheirIds) {

@@ -149,6 +149,59 @@ TEST(Simulation, ResumeAfterInterruptionLosesNothing) {
   fs::remove_all(cut);
 }
 
+// The curve protocol (docs/benchmarks.md, "Coverage per view"): one start scan from a side drawn
+// from the seed, one view per round; a point per scan in path order, the round's truth figures on
+// its last scan, and a resume after a kill that lost the last point gives the same curve.
+TEST(Simulation, CurveHasAPointPerScanAndSurvivesAResume) {
+  auto o = small_options();
+  o.blind.views = 1;
+  o.blind.random_start = true;
+  o.session.nbv.max_views = 1;
+  o.session.max_views = 3;
+  o.session.max_iterations = 5;
+  const auto full = fresh("curve_full"), cut = fresh("curve_cut");
+  const auto r = simulation::simulate(capsule_like(), full, o);
+  ASSERT_TRUE(r.curve.is_array());
+  ASSERT_EQ(r.curve.size(), static_cast<std::size_t>(r.scans));
+  for (std::size_t i = 0; i < r.curve.size(); ++i) {
+    const auto& e = r.curve[i];
+    EXPECT_EQ(e.value("scan", -1), static_cast<int>(i));
+    EXPECT_EQ(e.value("scans", 0), static_cast<int>(i + 1));
+    EXPECT_EQ(e.value("views", -1), static_cast<int>(i));  // one start scan, then next-best views
+    // One view per round: every scan is a round's last, with the next model's truth figures.
+    EXPECT_TRUE(e.contains("fscore")) << e.dump();
+    if (i > 0) {
+      EXPECT_GT(e.value("path_length", 0.0), r.curve[i - 1].value("path_length", 0.0));
+    }
+  }
+  EXPECT_GT(r.curve.back().value("coverage", 0.0), r.curve.front().value("coverage", 1.0));
+  // The curve's last point is the last iteration's coverage (the same truth samples).
+  EXPECT_EQ(r.curve.back().value("coverage", -1.0), r.truth.value("coverage", -2.0));
+  EXPECT_EQ(r.curve.back().value("coverage_scannable", -1.0), r.truth.value("coverage_scannable", -2.0));
+  // Another seed starts from another side.
+  auto o2 = o;
+  o2.session.seed = o.session.seed + 1;
+  EXPECT_NE(o.blind.seeded(o.session.seed).azimuth_offset_deg, o2.blind.seeded(o2.session.seed).azimuth_offset_deg);
+
+  // Stopped at the first progress report after the third scan's point was written.
+  const ProgressCallback stop_early = [&](std::string_view, double) {
+    std::error_code ec;
+    if (!fs::exists(cut / "curve.json", ec)) return true;
+    return nlohmann::json::parse(read_text_file(cut / "curve.json")).size() < 3;
+  };
+  EXPECT_THROW(simulation::simulate(capsule_like(), cut, o, stop_early), Cancelled);
+  // As a kill between the scan's add and the curve's write would leave it: the last point lost.
+  auto c = nlohmann::json::parse(read_text_file(cut / "curve.json"));
+  ASSERT_EQ(c.size(), 3u);
+  c.erase(c.size() - 1);
+  write_text_atomic(cut / "curve.json", c.dump());
+  const auto resumed = simulation::resume(cut);
+  EXPECT_EQ(resumed.curve, r.curve);
+  EXPECT_EQ(nlohmann::json::parse(read_text_file(cut / "curve.json")), r.curve);
+  fs::remove_all(full);
+  fs::remove_all(cut);
+}
+
 TEST(Simulation, BadInputIsReported) {
   const auto dir = fresh("bad");
   EXPECT_THROW(simulation::simulate(TriangleMesh{}, dir, small_options()), InputError);

@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/random.hpp"
 #include "autoscan/core/timer.hpp"
 
 namespace autoscan::scanner {
@@ -11,6 +12,15 @@ namespace autoscan::scanner {
 void BlindScanOptions::validate(const std::string& what) const {
   schema::check(*this, what);
   AUTOSCAN_REQUIRE(!elevations_deg.empty(), "{}: at least one elevation is needed", what);
+}
+
+BlindScanOptions BlindScanOptions::seeded(std::uint64_t seed) const {
+  BlindScanOptions o = *this;
+  if (!random_start) return o;
+  Rng rng = Rng(seed).stream(0xb11dULL);  // a stream of its own: the scans' noise is not shifted
+  o.azimuth_offset_deg += 360.0 * rng.uniform();
+  o.random_start = false;
+  return o;
 }
 
 std::vector<Pose> blind_scan_poses(const AABB& object, const ScannerSpec& spec, const BlindScanOptions& options) {
@@ -42,7 +52,7 @@ BlindScanResult blind_scan(const VirtualScanner& scanner, const BlindScanOptions
   Stopwatch clock;
   Progress bar(progress, "blind scan");
   BlindScanResult res;
-  res.poses = blind_scan_poses(scanner.bounds(), scanner.spec(), options);
+  res.poses = blind_scan_poses(scanner.bounds(), scanner.spec(), options.seeded(seed));
   for (std::size_t i = 0; i < res.poses.size(); ++i) {
     ScanResult s = scanner.scan(res.poses[i], options.first_scan_id + i, seed);
     res.rays_cast += s.diagnostics.rays_cast;

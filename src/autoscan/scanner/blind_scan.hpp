@@ -21,6 +21,10 @@ struct BlindScanOptions {
   std::vector<double> elevations_deg = {0.0, 30.0};  ///< one ring per elevation (degrees above the XY plane)
   double distance = 0.0;                             ///< distance from the centre; 0 = the spec's d_o (Figure 2(b))
   double azimuth_offset_deg = 0.0;  ///< azimuth of the first view; ring k is staggered by half a step for odd k
+  /// The start direction drawn from the seed (the curve protocol of docs/benchmarks.md, "Coverage
+  /// per view"): seeded() adds an azimuth uniform in [0, 360) to azimuth_offset_deg, so that the
+  /// seeds of a benchmark start from different sides of the object.
+  bool random_start = false;
   std::uint64_t first_scan_id = 0;  ///< scan ids are first_scan_id, first_scan_id + 1, ...
   /// The JSON form (a simulation's "blind"): the poses' options; first_scan_id is not one (the
   /// caller of blind_scan() numbers its scans).
@@ -30,7 +34,11 @@ struct BlindScanOptions {
     v("elevations_deg", elevations_deg, schema::closed(-90, 90));
     v("distance", distance, schema::closed(0, kMaxCoordinate));
     v("azimuth_offset_deg", azimuth_offset_deg);
+    v("random_start", random_start);
   }
+  /// These options with the start drawn from `seed` when random_start is set (deterministic in the
+  /// seed; random_start cleared in the copy), else unchanged.
+  BlindScanOptions seeded(std::uint64_t seed) const;
   /// Throws InputError for views < 1, no rings, elevations outside [-90, 90], a negative,
   /// non-finite or larger than kMaxCoordinate distance.
   void validate(const std::string& what = "blind scan") const;

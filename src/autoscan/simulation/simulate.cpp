@@ -88,6 +88,7 @@ json SimulateResult::to_json() const {
           {"mean_f", mean_f},
           {"truth", truth},
           {"checkpoints", checkpoints},
+          {"curve", curve},
           {"pose_error_before", pose_error_before},
           {"pose_error_after", pose_error_after},
           {"pose_error_before_fit", pose_error_before_fit},
@@ -150,6 +151,7 @@ const char* kCheckpointFile = "checkpoints.json";
 const char* kRegistrationFile = "registration.json";
 const char* kSkippedFile = "skipped_views.json";
 const char* kFixtureFile = "fixture_points.json";  // per scan: points the scanner captured on fixtures
+const char* kCurveFile = "curve.json";             // per scan: coverage after it (docs/benchmarks.md)
 
 bool same_position(const Pose& a, const Pose& b) { return (a.position - b.position).norm() < 1e-12; }
 
@@ -177,6 +179,14 @@ class Loop {
       fixture_points_ = j;
     }
     if (opts_.evaluate && opts_.scannable) load_or_build_reference();
+    // The per-view curve: the truth's samples and the scannable mask drawn once (the iteration's
+    // truth figures draw the same, so the curve's last point of an iteration is its coverage).
+    if (opts_.evaluate) probe_.emplace(truth_, reference(), opts_.eval.tau, opts_.eval.samples, opts_.eval.seed);
+    if (fs::exists(dir_ / kCurveFile)) {
+      auto j = json::parse(read_text_file(dir_ / kCurveFile), nullptr, false);
+      AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_array(), "{}: corrupt file", (dir_ / kCurveFile).string());
+      curve_ = j;
+    }
     if (fs::exists(dir_ / kCheckpointFile)) {
       auto j = json::parse(read_text_file(dir_ / kCheckpointFile), nullptr, false);
       AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_array(), "{}: corrupt checkpoints file",
@@ -229,6 +239,7 @@ class Loop {
         reconstructor_ = ground_closing_reconstructor(*g, opts_.scanner.far);
     s.set_reconstructor(reconstructor_);
     recover_registration_errors(s);
+    recover_curve(s);
     views_at_start_ = views_done(s);
     run_clock_.reset();
     blind_phase(s);
@@ -278,6 +289,7 @@ class Loop {
     }
     fill_checkpoints(s, r);
     r.checkpoints = checkpoints_;
+    r.curve = curve_;
     if (opts_.report) report::write_report(dir_);
     r.seconds = clock.seconds();
     return r;
@@ -328,7 +340,59 @@ class Loop {
     }
     s.add_scan(r.cloud, pose);
     record_registration_error(static_cast<int>(id), r);
+    record_curve_point(s);
     return true;
+  }
+
+  // The coverage curve (curve.json, docs/benchmarks.md "Coverage per view"): after every scan, in
+  // path order, the coverage of the model's points (all of the truth, and of its scannable part),
+  // the views and scans so far and the scanner's path length (straight lines between the scan
+  // positions). The truth figures of the model reconstructed after a round (F-score, accuracy) are
+  // added to the round's last scan (attach_curve_truth): with one view per round, to every view.
+  void record_curve_point(const session::Session& s) {
+    if (!probe_ || s.scans().empty()) return;
+    const auto& rec = s.scans().back();
+    const auto c = probe_->measure(s.model_points());
+    double path = 0.0;
+    for (std::size_t i = 1; i < s.scans().size(); ++i)
+      path += (s.scans()[i].reported_pose.position - s.scans()[i - 1].reported_pose.position).norm();
+    json e = {{"scan", rec.id},         {"iteration", rec.model_iteration},  {"scans", s.scans().size()},
+              {"views", views_done(s)}, {"points", s.model_points().size()}, {"coverage", c.coverage},
+              {"path_length", path}};
+    if (reference()) e["coverage_scannable"] = c.scannable_coverage;
+    curve_.push_back(std::move(e));
+    write_text_atomic(dir_ / kCurveFile, curve_.dump(1));
+    log::info("simulate: scan {} ({} next-best views): coverage {:.1f} %{}, path length {:.3f}", rec.id, views_done(s),
+              100.0 * c.coverage,
+              reference() ? fmt::format(", {:.1f} % of the scannable", 100.0 * c.scannable_coverage) : std::string(),
+              path);
+  }
+
+  // A kill between add_scan and the curve's write: the session still holds the model of that
+  // moment (nothing came after the scan), so the point is measured now, as it was then.
+  void recover_curve(const session::Session& s) {
+    if (!probe_ || s.scans().empty()) return;
+    const int last = s.scans().back().id;
+    if (!curve_.empty() && curve_.back().value("scan", -1) >= last) return;
+    if (!s.iterations().empty() && s.iterations().back().index > s.scans().back().model_iteration) return;
+    record_curve_point(s);
+    log::info("simulate: the coverage after scan {} recovered", last);
+  }
+
+  // The round's truth figures on the curve's point of its last scan (idempotent).
+  void attach_curve_truth(const session::Session& s, const json& t, double mean_f) {
+    if (curve_.empty() || s.scans().empty() || s.iterations().empty() ||
+        curve_.back().value("scan", -1) != s.scans().back().id)
+      return;
+    // Only a model that holds the scan (the scan came before the iteration).
+    if (s.iterations().back().index <= s.scans().back().model_iteration) return;
+    json& e = curve_.back();
+    if (e.contains("fscore")) return;
+    for (const char* k : {"fscore", "precision", "recall", "accuracy_mean", "completeness_mean"})
+      if (t.contains(k)) e[k] = t[k];
+    e["mean_f"] = mean_f;
+    e["model_iteration"] = s.iterations().back().index;
+    write_text_atomic(dir_ / kCurveFile, curve_.dump(1));
   }
 
   // A kill between add_scan and the write of registration.json loses the last scan's entry: the
@@ -439,9 +503,10 @@ class Loop {
     // A scene's blind ring drives up to the buildings (the operator sees them): the truth's ray scene.
     std::optional<spatial::RayScene> buildings;
     if (!opts_.scene.empty()) buildings.emplace(truth_);
-    const auto poses = opts_.scene.empty() ? scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind)
-                                           : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig,
-                                                               opts_.blind.views, &*buildings);
+    const auto poses =
+        opts_.scene.empty()
+            ? scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind.seeded(opts_.session.seed))
+            : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig, opts_.blind.views, &*buildings);
     for (std::size_t i = 0; i < poses.size(); ++i) {
       const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
         return same_position(r.reported_pose, poses[i]);
@@ -459,6 +524,7 @@ class Loop {
     if (!last.truth.is_null() && !last.truth.empty()) {
       // A kill between attach_truth and the checkpoint's write: record it now, as it was then.
       record_checkpoint(last.truth.value("views_taken", views_done(s)), last.truth, last.mean_f);
+      attach_curve_truth(s, last.truth, last.mean_f);
       return;
     }
     TriangleMesh loaded;
@@ -477,6 +543,7 @@ class Loop {
     }
     s.attach_truth(last.index, t);
     record_checkpoint(views_done(s), t, last.mean_f);
+    attach_curve_truth(s, t, last.mean_f);
     log::info("iteration {}: mean f {:.3f}, coverage {:.3f}, F-score {:.3f}, accuracy {:.5f}", last.index, last.mean_f,
               t.value("coverage", 0.0), t.value("fscore", 0.0), t.value("accuracy_mean", 0.0));
   }
@@ -649,6 +716,8 @@ class Loop {
   std::set<std::pair<int, int>> skipped_views_;  // (iteration or -1 for the blind scan, view index)
   std::optional<PointCloud> reference_;
   json registration_errors_ = json::array();
+  std::optional<eval::CoverageProbe> probe_;  // the curve's coverage (null without evaluation)
+  json curve_ = json::array();
   session::Reconstructor reconstructor_ = session::reconstruct_model;  // scene: with the ground (scene.hpp)
   // progress_line: the run's clock (this process), the virtual scanner's share, lines written.
   Stopwatch run_clock_;

@@ -110,6 +110,10 @@ struct SimulateResult {
   nlohmann::json best_truth;   ///< its ground-truth figures
   nlohmann::json certificate;  ///< the last iteration's quality certificate (docs/stop-rule.md)
   nlohmann::json checkpoints = nlohmann::json::array();  ///< [{views, coverage, fscore, ...}]
+  /// The coverage after every scan, in path order (curve.json; docs/benchmarks.md "Coverage per
+  /// view"): [{scan, iteration, scans, views, points, coverage, coverage_scannable, path_length},
+  /// with fscore, accuracy_mean, ... and mean_f on a round's last scan]. Empty without evaluation.
+  nlohmann::json curve = nlohmann::json::array();
   /// Registration against the truth (registration.json per scan): mean distance of the registered
   /// scans' points from where they belong, with the reported pose (before) and after the session's
   /// correction (after). 0 when no scan was registered.
