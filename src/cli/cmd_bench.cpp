@@ -14,8 +14,9 @@ namespace {
 namespace fs = std::filesystem;
 
 struct BenchCli {
-  std::string out, models, planners, views, noise, seeds, models_dir = "data/models", collect, results_md;
-  int jobs = 1, depth = 7;
+  std::string out, models, planners, views, noise, seeds, models_dir = "data/models", collect, results_md,
+                                                          protocol = "budgets";
+  int jobs = 1, depth = 7, views_per_iteration = 0;
   std::optional<int> job;  // not given: the whole grid
   bool emit_jobs = false;
   bool keep_runs = false;
@@ -68,6 +69,13 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
   sub->add_option("--noise", o->noise, "Noise magnitudes, e.g. 0,0.5");
   sub->add_option("--seeds", o->seeds, "Seeds, e.g. 1,2,3");
   sub->add_option("--depth", o->depth, "Poisson depth of the runs")->capture_default_str();
+  sub->add_option("--protocol", o->protocol,
+                  "budgets (after the blind ring, at the view budgets) or curve (one start scan, the coverage after "
+                  "every view, the 'oracle' pseudo-planner as the reference; docs/benchmarks.md)")
+      ->capture_default_str();
+  sub->add_option("--views-per-iteration", o->views_per_iteration,
+                  "Next-best views per round (0: 10 for budgets, 1 for curve)")
+      ->capture_default_str();
   sub->add_option("--models-dir", o->models_dir, "Where model names are looked up")->capture_default_str();
   sub->add_option("--jobs", o->jobs, "Runs in parallel (processes)")->capture_default_str();
   sub->add_flag("--emit-jobs", o->emit_jobs,
@@ -101,6 +109,14 @@ AUTOSCAN_CLI_COMMAND(bench, 110, [](CLI::App& root, autoscan::cli::Globals& g) {
     if (!o->noise.empty()) grid.noise = parse_list<double>(o->noise, "--noise");
     if (!o->seeds.empty()) grid.seeds = parse_list<std::uint64_t>(o->seeds, "--seeds");
     grid.depth = o->depth;
+    grid.protocol = o->protocol;
+    grid.views_per_iteration = o->views_per_iteration;
+    // The curve protocol's defaults: budgets 5, 10, 20, 30, the oracle among the planners.
+    if (grid.protocol == "curve") {
+      if (o->views.empty()) grid.views = {5, 10, 20, 30};
+      if (o->planners.empty()) grid.planners.push_back("oracle");
+      if (o->noise.empty()) grid.noise = {0.0};
+    }
     grid.models_dir = o->models_dir;
     init_bench(o->out, grid);
     if (o->emit_jobs) {

@@ -108,7 +108,8 @@ PlanOutput run(const std::string& name, const SceneFixture& fx, std::uint64_t se
   return p->plan(state ? *state : fx.state, fx.poses.back(), rng);
 }
 
-const std::vector<std::string> kBaselines = {"random", "sphere", "density", "curvature", "visibility", "pvs"};
+const std::vector<std::string> kBaselines = {"random",     "sphere", "density", "curvature",
+                                             "visibility", "pvs",    "farthest"};
 
 void expect_valid_views(const PlanOutput& out, const ModelState& st, const std::string& name) {
   ASSERT_FALSE(out.views.empty()) << name << ": " << out.diagnostics.dump();
@@ -416,4 +417,26 @@ TEST(Frontier, ViewsAimAtTheEdgeOfWhatWasMeasured) {
     for (const auto& v : plain.views) farthest = std::max(farthest, nearest_raw(v.target));
     EXPECT_GT(farthest, r + 0.048) << name;
   }
+}
+
+// farthest: the first view opposite the one scan, the next one as far from both.
+TEST(Baselines, FarthestLooksFromTheOtherSide) {
+  ModelState st;
+  st.acquired_bounds.extend(Vec3(-0.2, -0.2, -0.2));
+  st.acquired_bounds.extend(Vec3(0.2, 0.2, 0.2));
+  const double d = st.scanner.optimal_distance();
+  st.scan_poses = {Pose::look_at(Vec3(d, 0, 0), Vec3::Zero())};
+  PlannerOptions o;
+  o.nbv.max_views = 2;
+  auto planner = make_planner("farthest", o);
+  Rng rng(1);
+  const auto out = planner->plan(st, st.scan_poses[0], rng);
+  ASSERT_EQ(out.views.size(), 2u);
+  // The path order may swap them: find the one opposite the scan.
+  std::vector<double> dots;
+  for (const auto& v : out.views) dots.push_back(v.pose.position.normalized().dot(Vec3::UnitX()));
+  std::sort(dots.begin(), dots.end());
+  EXPECT_LT(dots[0], -0.98);
+  EXPECT_LT(std::abs(dots[1]), 0.2);
+  for (const auto& v : out.views) EXPECT_NEAR(v.pose.position.norm(), d, 1e-9);
 }

@@ -283,6 +283,16 @@ CoverageSplit CoverageProbe::measure(const PointCloud& scanned) const {
   return out;
 }
 
+std::vector<std::uint32_t> CoverageProbe::covered(const PointCloud& scanned) const {
+  scanned.validate("scanned point cloud");
+  std::vector<std::uint32_t> out;
+  if (scanned.empty()) return out;
+  const auto ds = nearest_point_distances(scanned.positions, samples_);
+  for (std::size_t i = 0; i < ds.size(); ++i)
+    if (ds[i] <= tau_abs_) out.push_back(static_cast<std::uint32_t>(i));
+  return out;
+}
+
 void write_histogram_csv(const std::filesystem::path& path, const ErrorHistogram& h) {
   AUTOSCAN_REQUIRE(h.edges.size() == h.share.size() + 1 && h.counts.size() == h.share.size(),
                    "{}: inconsistent histogram", path.string());

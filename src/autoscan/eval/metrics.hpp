@@ -162,7 +162,12 @@ class CoverageProbe {
   CoverageProbe(const TriangleMesh& truth, const PointCloud* reference, double tau = 0.005,
                 std::size_t samples = 200000, std::uint64_t seed = 1);
   CoverageSplit measure(const PointCloud& scanned) const;
+  /// The indices of the samples within tau of `scanned` (increasing): the per-view sets of the
+  /// coverage oracle's greedy set cover (simulation/oracle.hpp).
+  std::vector<std::uint32_t> covered(const PointCloud& scanned) const;
   std::size_t samples() const { return samples_.size(); }
+  bool scannable(std::size_t i) const { return scannable_[i] != 0; }
+  std::size_t scannable_count() const { return scannable_count_; }
 
  private:
   std::vector<Vec3> samples_;

@@ -2,6 +2,7 @@
 
 #include "autoscan/planners/curvature_planner.hpp"
 #include "autoscan/planners/density_planner.hpp"
+#include "autoscan/planners/farthest_planner.hpp"
 #include "autoscan/planners/pvs_planner.hpp"
 #include "autoscan/planners/random_planner.hpp"
 #include "autoscan/planners/sphere_planner.hpp"
@@ -16,6 +17,7 @@ void add_baseline_planners(std::map<std::string, PlannerFactory>& factories) {
   factories["curvature"] = [](const PlannerOptions& o) { return std::make_unique<CurvaturePlanner>(o); };
   factories["visibility"] = [](const PlannerOptions& o) { return std::make_unique<VisibilityPlanner>(o); };
   factories["pvs"] = [](const PlannerOptions& o) { return std::make_unique<PvsPlanner>(o); };
+  factories["farthest"] = [](const PlannerOptions& o) { return std::make_unique<FarthestPlanner>(o); };
 }
 
 }  // namespace autoscan::planners

@@ -18,7 +18,12 @@
 #include "autoscan/core/timer.hpp"
 #include "autoscan/eval/metrics.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/scanner/blind_scan.hpp"
+#include "autoscan/shapes/normalize.hpp"
 #include "autoscan/shapes/procedural.hpp"
+#include "autoscan/simulation/fixtures.hpp"
+#include "autoscan/simulation/oracle.hpp"
+#include "autoscan/simulation/scannable.hpp"
 
 extern char** environ;
 
@@ -32,13 +37,20 @@ void BenchGrid::validate() const {
   for (int v : views) AUTOSCAN_REQUIRE(v > 0, "bench: view budgets must be positive, got {}", v);
   for (double n : noise) AUTOSCAN_REQUIRE(n >= 0 && n <= 1, "bench: noise must be in [0, 1], got {}", n);
   AUTOSCAN_REQUIRE(depth >= 4 && depth <= 10, "bench: depth must be in [4, 10], got {}", depth);
+  AUTOSCAN_REQUIRE(protocol == "budgets" || protocol == "curve",
+                   "bench: protocol must be 'budgets' or 'curve', got '{}'", protocol);
+  AUTOSCAN_REQUIRE(views_per_iteration >= 0, "bench: views per iteration must be >= 0, got {}", views_per_iteration);
+  for (const auto& p : planners)
+    AUTOSCAN_REQUIRE(p != "oracle" || protocol == "curve",
+                     "bench: the oracle is a reference of the curve protocol (--protocol curve)");
 }
 
 json to_json(const BenchGrid& g) {
-  return {{"models", g.models}, {"planners", g.planners},
-          {"views", g.views},   {"noise", g.noise},
-          {"seeds", g.seeds},   {"models_dir", g.models_dir.string()},
-          {"depth", g.depth},   {"max_iterations", g.max_iterations}};
+  return {{"models", g.models},     {"planners", g.planners},
+          {"views", g.views},       {"noise", g.noise},
+          {"seeds", g.seeds},       {"models_dir", g.models_dir.string()},
+          {"depth", g.depth},       {"max_iterations", g.max_iterations},
+          {"protocol", g.protocol}, {"views_per_iteration", g.views_per_iteration}};
 }
 
 BenchGrid bench_grid_from_json(const json& j, const std::string& what) {
@@ -52,6 +64,8 @@ BenchGrid bench_grid_from_json(const json& j, const std::string& what) {
     g.models_dir = j.value("models_dir", g.models_dir.string());
     g.depth = j.value("depth", g.depth);
     g.max_iterations = j.value("max_iterations", g.max_iterations);
+    g.protocol = j.value("protocol", g.protocol);
+    g.views_per_iteration = j.value("views_per_iteration", g.views_per_iteration);
   } catch (const json::exception& e) {
     throw InputError(fmt::format("{}: {}", what, e.what()));
   }
@@ -140,8 +154,48 @@ SimulateOptions bench_run_options(const BenchGrid& g, const BenchJob& job, const
   // model, shared by all its runs.
   o.scannable_cache = dir / "scannable" / (fs::path(job.model).stem().string() + ".ply");
   o.report = false;
+  if (g.views_per_iteration > 0) o.session.nbv.max_views = g.views_per_iteration;
+  if (g.protocol == "curve") {
+    // One start scan at 20 degrees above the horizon, its azimuth drawn from the seed; one view per
+    // round unless told; rounds enough for the budget with some views refused.
+    o.blind.views = 1;
+    o.blind.elevations_deg = {20.0};
+    o.blind.random_start = true;
+    if (g.views_per_iteration == 0) o.session.nbv.max_views = 1;
+    const int k = o.session.nbv.max_views;
+    o.session.max_iterations = std::max(g.max_iterations, (o.session.max_views + k - 1) / k + 5);
+  }
   return o;
 }
+
+namespace {
+// The pseudo-planner "oracle" of the curve protocol: the greedy set cover with the truth (oracle.hpp)
+// from the runs' start scan, on the truth as the runs scan it.
+SimulateResult oracle_job(const BenchGrid& g, const BenchJob& job, const fs::path& dir,
+                          const ProgressCallback& progress, json& extra) {
+  const SimulateOptions o = bench_run_options(g, job, dir);
+  TriangleMesh truth = load_model(g, job.model);
+  if (o.normalize) normalize_to_benchmark_frame(truth);
+  rest_on_support(truth, o.rig);
+  const PointCloud reference =
+      cached_scannable_reference(o.scannable_cache, truth, o.scanner, o.rig, o.eval.tau, o.scannable_options);
+  OracleOptions oo;
+  oo.views = o.session.max_views;
+  oo.candidates = o.scannable_options;
+  oo.eval = o.eval;
+  const auto start = scanner::blind_scan_poses(truth.bounds(), o.scanner, o.blind.seeded(o.session.seed));
+  const OracleResult r = coverage_oracle(truth, o.scanner, o.rig, start, &reference, oo, progress);
+  SimulateResult out;
+  out.directory = dir / "runs" / job.name;
+  out.curve = r.curve;
+  out.scans = static_cast<int>(r.poses.size());
+  out.views = out.scans - static_cast<int>(start.size());
+  out.stop_reason = "oracle";
+  out.seconds = r.seconds;
+  extra = {{"oracle", true}, {"candidates", r.candidates}, {"refused", r.refused}};
+  return out;
+}
+}  // namespace
 
 json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
   const BenchGrid g = load_grid(dir);
@@ -152,7 +206,10 @@ json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
   if (finished(dir, job)) return json::parse(read_text_file(result_path(dir, job)));
   const fs::path run_dir = dir / "runs" / job.name;
   SimulateResult r;
-  if (fs::exists(run_dir / "simulation.json")) {
+  json extra = json::object();
+  if (job.planner == "oracle") {
+    r = oracle_job(g, job, dir, progress, extra);
+  } else if (fs::exists(run_dir / "simulation.json")) {
     r = resume(run_dir, progress);
   } else {
     fs::remove_all(run_dir);
@@ -161,6 +218,7 @@ json run_job(const fs::path& dir, int index, const ProgressCallback& progress) {
   }
   json out = {{"job", job.index},   {"model", job.model}, {"planner", job.planner},
               {"noise", job.noise}, {"seed", job.seed},   {"result", r.to_json()}};
+  out["result"].update(extra);
   write_text_atomic(result_path(dir, job), out.dump(1));
   return out;
 }
@@ -304,9 +362,15 @@ class Collector {
     fs::create_directories(dir_ / "plots");
     plot_rel_ = markdown_out_.empty() ? fs::path("plots") : fs::relative(dir_ / "plots", markdown_out_.parent_path());
     write_header();
-    for (const auto& m : g_.models) {
-      for (double n : g_.noise) section(m, n);
-      noise_figure(m);
+    if (g_.protocol == "curve") {
+      write_text_atomic(dir_ / "curves.csv", curve_csv_.str());
+      for (const auto& m : g_.models)
+        for (double n : g_.noise) curve_section(m, n);
+    } else {
+      for (const auto& m : g_.models) {
+        for (double n : g_.noise) section(m, n);
+        noise_figure(m);
+      }
     }
     write_text_atomic(dir_ / "results.md", md_.str());
     if (!markdown_out_.empty()) write_text_atomic(markdown_out_, md_.str());
@@ -329,6 +393,22 @@ class Collector {
   void views_table(const std::string& m, double n);
   void iteration_figures(const std::string& m, double n, const std::string& ms, const std::string& base);
   void noise_figure(const std::string& m);
+  void add_curve(const BenchJob& j, const json& curve);
+  void curve_section(const std::string& m, double n);
+
+  // One run of the curve protocol: scannable coverage after v = 0..N next-best views (held flat
+  // after the run's last view), the truth figures at the budgets, the path length at N.
+  struct CurveRun {
+    std::uint64_t seed = 0;
+    std::vector<double> coverage;
+    std::map<int, double> fscore, accuracy;
+    double path_length = 0;
+    double area() const {  // mean scannable coverage over views 1..N
+      double a = 0;
+      for (std::size_t v = 1; v < coverage.size(); ++v) a += coverage[v];
+      return coverage.size() > 1 ? a / static_cast<double>(coverage.size() - 1) : std::nan("");
+    }
+  };
 
   fs::path dir_;
   BenchGrid g_;
@@ -336,8 +416,9 @@ class Collector {
   fs::path markdown_out_;
   fs::path plot_rel_;
   json rows_ = json::array();
-  std::ostringstream csv_, md_;
-  std::map<AggKey, std::map<std::string, std::vector<double>>> agg_;  // values over seeds
+  std::ostringstream csv_, md_, curve_csv_;
+  std::map<std::tuple<std::string, double, std::string>, std::vector<CurveRun>> curves_;  // model, noise, planner
+  std::map<AggKey, std::map<std::string, std::vector<double>>> agg_;                      // values over seeds
   std::map<std::pair<std::string, std::string>, std::vector<std::pair<std::string, eval::ErrorHistogram>>> hist_;
   int have_ = 0;
 };
@@ -362,7 +443,38 @@ void Collector::add_checkpoint(const BenchJob& j, const json& c) {
   rows_.push_back(row);
 }
 
+void Collector::add_curve(const BenchJob& j, const json& curve) {
+  const int n = *std::max_element(g_.views.begin(), g_.views.end());
+  CurveRun run;
+  run.seed = j.seed;
+  std::vector<double> at(static_cast<std::size_t>(n) + 1, std::nan(""));
+  for (const auto& e : curve) {
+    const int v = e.value("views", 0);
+    if (v < 0 || v > n) continue;
+    const double c = e.contains("coverage_scannable") ? e.value("coverage_scannable", 0.0) : e.value("coverage", 0.0);
+    at[static_cast<std::size_t>(v)] = c;
+    run.path_length = e.value("path_length", 0.0);
+    for (int b : g_.views)
+      if (v <= b && e.contains("fscore")) {
+        run.fscore[b] = e.value("fscore", std::nan(""));
+        run.accuracy[b] = e.value("accuracy_mean", std::nan(""));
+      }
+    curve_csv_ << fmt::format(
+        "{},{},{},{},{},{},{:.6f},{:.6f},{},{},{:.6f}\n", j.model, j.planner, j.noise, j.seed, e.value("scan", 0), v,
+        e.value("coverage", 0.0), c,
+        e.contains("fscore") ? fmt::format("{:.6f}", e.value("fscore", 0.0)) : std::string(),
+        e.contains("accuracy_mean") ? fmt::format("{:.6g}", e.value("accuracy_mean", 0.0)) : std::string(),
+        e.value("path_length", 0.0));
+  }
+  if (curve.empty() || !std::isfinite(at[0])) return;
+  for (std::size_t v = 1; v < at.size(); ++v)
+    if (!std::isfinite(at[v])) at[v] = at[v - 1];  // no view added (refused, stopped): flat
+  run.coverage = std::move(at);
+  curves_[{j.model, j.noise, j.planner}].push_back(std::move(run));
+}
+
 void Collector::gather() {
+  curve_csv_ << "model,planner,noise,seed,scan,views,coverage,coverage_scannable,fscore,accuracy_mean,path_length\n";
   csv_ << "model,planner,noise,seed,views,views_taken,reached,coverage,coverage_scannable,fscore,precision,recall,"
           "accuracy_mean,completeness_mean,mean_f\n";
   for (const auto& j : jobs_) {
@@ -371,6 +483,7 @@ void Collector::gather() {
     const json r = json::parse(read_text_file(result_path(dir_, j)));
     const json& res = r["result"];
     for (const auto& c : res.value("checkpoints", json::array())) add_checkpoint(j, c);
+    if (g_.protocol == "curve") add_curve(j, res.value("curve", json::array()));
     // Figure 9: the final reconstruction's error histogram per planner.
     const json& t = res.value("truth", json());
     if (t.is_object() && t.contains("histogram") && j.seed == g_.seeds.front()) {
@@ -390,8 +503,18 @@ void Collector::write_header() {
       << " runs finished. Grid: models " << fmt::format("{}", fmt::join(g_.models, ", ")) << "; planners "
       << fmt::format("{}", fmt::join(g_.planners, ", ")) << "; view budgets "
       << fmt::format("{}", fmt::join(g_.views, ", ")) << "; noise " << fmt::format("{}", fmt::join(g_.noise, ", "))
-      << "; seeds " << g_.seeds.size() << "; Poisson depth " << g_.depth
-      << ".\nEach cell: F-score of the Poisson mesh at τ = 0.005 of the diagonal / coverage of the truth by "
+      << "; seeds " << g_.seeds.size() << "; Poisson depth " << g_.depth;
+  if (g_.protocol == "curve") {
+    md_ << "; protocol curve (docs/benchmarks.md, \"Coverage per view\"), "
+        << (g_.views_per_iteration > 0 ? g_.views_per_iteration : 1)
+        << " view(s) per round.\nEvery run starts from one scan (20 degrees above the horizon, its azimuth drawn "
+           "from the seed: every planner of a seed starts from the same scan) and adds next-best views up to the "
+           "largest budget, no stop rule; coverage of the scannable truth is measured after every scan (curves.csv). "
+           "The oracle is the greedy set cover with the truth's visibility over the scannable reference's views "
+           "(simulation/oracle.hpp): not a planner, a reference.\n\n";
+    return;
+  }
+  md_ << ".\nEach cell: F-score of the Poisson mesh at τ = 0.005 of the diagonal / coverage of the truth by "
       << "the scanned points / coverage of the scannable truth (the part a dense set of noise-free views captures, "
       << "simulation/scannable.hpp), means over seeds. Every run goes to the largest view budget (the confidence stop "
       << "rule is off in the benchmark); a budget a run did not reach (views refused) uses its final model.\n\n";
@@ -580,6 +703,90 @@ void Collector::iteration_figures(const std::string& m, double n, const std::str
                                "mean distance to truth", ix, err));
   md_ << "![confidence per iteration](" << (plot_rel_ / (base + "_confidence.svg")).string()
       << ") ![error per iteration](" << (plot_rel_ / (base + "_error.svg")).string() << ")\n";
+}
+
+// Issue 43, the curve protocol: per planner the area under the scannable-coverage curve (mean over
+// views 1..N), its ratio to the oracle's on the same seeds, the views to 90 / 95 / 99 % (mean over
+// the seeds that got there), the path length; coverage / F-score / accuracy at the budgets; the
+// mean curves as a plot.
+void Collector::curve_section(const std::string& m, double n) {
+  const std::string ms = fs::path(m).stem().string();
+  const int nmax = *std::max_element(g_.views.begin(), g_.views.end());
+  md_ << "## " << ms << ", noise " << n << "\n\nArea under the scannable-coverage curve over next-best views 1.."
+      << nmax << " (mean ± standard deviation over seeds), as a share of the oracle's on the same seeds, next-best "
+      << "views to 90 / 95 / 99 % of the scannable surface (mean over the seeds that got there), path length at "
+      << nmax << " views:\n\n| planner | seeds | area | / oracle | views to 90 % | views to 95 % | views to 99 % | "
+      << "path length |\n|---|---|---|---|---|---|---|---|\n";
+  std::map<std::uint64_t, double> oracle_area;
+  if (auto it = curves_.find({m, n, "oracle"}); it != curves_.end())
+    for (const auto& r : it->second) oracle_area[r.seed] = r.area();
+  Series series;
+  for (const auto& p : g_.planners) {
+    auto it = curves_.find({m, n, p});
+    const std::string label = p == "oracle" ? "oracle (knows the truth)" : p;
+    if (it == curves_.end() || it->second.empty()) {
+      md_ << "| " << label << " | 0 | – | – | – | – | – | – |\n";
+      continue;
+    }
+    const auto& runs = it->second;
+    std::vector<double> area, ratio, path;
+    std::vector<double> mean_curve(static_cast<std::size_t>(nmax) + 1, 0.0);
+    for (const auto& r : runs) {
+      area.push_back(r.area());
+      path.push_back(r.path_length);
+      if (auto o = oracle_area.find(r.seed); o != oracle_area.end() && o->second > 0)
+        ratio.push_back(r.area() / o->second);
+      for (std::size_t v = 0; v < mean_curve.size() && v < r.coverage.size(); ++v)
+        mean_curve[v] += r.coverage[v] / static_cast<double>(runs.size());
+    }
+    auto views_to = [&](double level) {
+      std::vector<double> got;
+      for (const auto& r : runs)
+        for (std::size_t v = 0; v < r.coverage.size(); ++v)
+          if (r.coverage[v] >= level) {
+            got.push_back(static_cast<double>(v));
+            break;
+          }
+      if (got.empty()) return fmt::format("> {}", nmax);
+      if (got.size() == runs.size()) return fmt::format("{:.1f}", mean_of(got));
+      return fmt::format("{:.1f} ({} of {}; others > {})", mean_of(got), got.size(), runs.size(), nmax);
+    };
+    md_ << "| " << label << " | " << runs.size() << " | " << mean_sd(area, 3) << " | "
+        << (ratio.empty() ? std::string("–") : fmt::format("{:.3f}", mean_of(ratio))) << " | " << views_to(0.90)
+        << " | " << views_to(0.95) << " | " << views_to(0.99) << " | " << mean_sd(path, 2) << " |\n";
+    series.emplace_back(label, mean_curve);
+  }
+  md_ << "\nScannable coverage / F-score / mean accuracy (1e-4 of the diagonal) at "
+      << fmt::format("{}", fmt::join(g_.views, ", "))
+      << " next-best views (means over seeds; the oracle reconstructs nothing):\n\n| planner |";
+  for (int v : g_.views) md_ << " " << v << " views |";
+  md_ << "\n|---|";
+  for (std::size_t i = 0; i < g_.views.size(); ++i) md_ << "---|";
+  md_ << "\n";
+  for (const auto& p : g_.planners) {
+    auto it = curves_.find({m, n, p});
+    if (it == curves_.end() || it->second.empty()) continue;
+    md_ << "| " << (p == "oracle" ? "oracle (knows the truth)" : p) << " |";
+    for (int v : g_.views) {
+      std::vector<double> c, f, a;
+      for (const auto& r : it->second) {
+        if (static_cast<std::size_t>(v) < r.coverage.size()) c.push_back(r.coverage[static_cast<std::size_t>(v)]);
+        if (auto fi = r.fscore.find(v); fi != r.fscore.end()) f.push_back(fi->second);
+        if (auto ai = r.accuracy.find(v); ai != r.accuracy.end()) a.push_back(ai->second);
+      }
+      const double fm = mean_of(f), am = mean_of(a);
+      md_ << fmt::format(" {:.3f} / {} / {} |", mean_of(c), std::isfinite(fm) ? fmt::format("{:.3f}", fm) : "–",
+                         std::isfinite(am) ? fmt::format("{:.2f}", 1e4 * am) : "–");
+    }
+    md_ << "\n";
+  }
+  std::vector<double> xs(static_cast<std::size_t>(nmax) + 1);
+  for (std::size_t v = 0; v < xs.size(); ++v) xs[v] = static_cast<double>(v);
+  const std::string base = fmt::format("{}_n{}_curve", ms, n);
+  write_text_atomic(dir_ / "plots" / (base + ".svg"),
+                    line_chart(ms + " (noise " + fmt::format("{}", n) + "): scannable coverage per view",
+                               "next-best views after one start scan", "scannable coverage", xs, series));
+  md_ << "\n![coverage per view](" << (plot_rel_ / (base + ".svg")).string() << ")\n\n";
 }
 
 // Figure 16: accuracy at the largest budget against noise, per planner.

@@ -25,6 +25,13 @@ struct BenchGrid {
   std::filesystem::path models_dir = "data/models";  ///< where model names are looked up (NAME.off)
   int depth = 7;                                     ///< Poisson depth of the benchmark runs (kept modest: many runs)
   int max_iterations = 15;
+  /// "budgets": the paper's comparisons, after the blind ring, at the view budgets `views`. "curve"
+  /// (issue 43; docs/benchmarks.md, "Coverage per view"): one start scan from a side drawn from the
+  /// seed, `views_per_iteration` views per round, the coverage after every view up to the largest
+  /// budget, F-score and accuracy at the budgets, the area under the curve and the views to 90 / 95
+  /// / 99 %; the pseudo-planner "oracle" (oracle.hpp) is the reference the areas are divided by.
+  std::string protocol = "budgets";
+  int views_per_iteration = 0;  ///< next-best views per round (nbv.max_views); 0: 10 (budgets), 1 (curve)
   void validate() const;
 };
 nlohmann::json to_json(const BenchGrid& g);

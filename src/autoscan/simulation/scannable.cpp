@@ -11,6 +11,7 @@
 #include "autoscan/core/log.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/core/timer.hpp"
+#include "autoscan/io/mesh_io.hpp"
 #include "autoscan/planners/common.hpp"
 #include "autoscan/scanner/virtual_scanner.hpp"
 #include "autoscan/session/supports.hpp"
@@ -26,32 +27,11 @@ Pose looking_at(const Vec3& position, const Vec3& target) {
   return Pose::look_at(position, target, std::abs(d.z()) > 0.95 ? Vec3::UnitX() : Vec3::UnitZ());
 }
 
-}  // namespace
-
-void ScannableOptions::validate(const std::string& what) const {
-  schema::check(*this, what);
-  AUTOSCAN_REQUIRE(surface_views + sphere_views > 0, "{}: need at least one view", what);
-}
-
-ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,
-                                       const ScannableOptions& o) {
-  AUTOSCAN_REQUIRE(!truth.empty(), "scannable: empty truth mesh");
-  AUTOSCAN_REQUIRE(std::isfinite(voxel) && voxel > 0.0, "scannable: voxel must be > 0 (got {})", voxel);
-  o.validate();
-  const Stopwatch clock;
-  ScannerSpec s = spec;
-  s.noise = NoiseSpec{};
-  s.width = std::max(16, spec.width / o.resolution_divisor);
-  s.height = std::max(16, spec.height / o.resolution_divisor);
-  scanner::VirtualScannerOptions so;
-  so.rig = rig;
-  so.fixtures = fixture_meshes(rig);  // the fixtures occlude here as in the loop
-  const scanner::VirtualScanner sc(truth, s, so);
-  // The object's points within a fixture's tolerance are removed by any session (the contact rim,
-  // docs/supports.md): not scannable surface either.
-  const session::FixtureGeometry fixtures(rig);
+// The reference's views (scannable.hpp): along the normals of area-uniform surface samples, and on
+// the d_o sphere; a scene rig's view moved into its reach.
+std::vector<Pose> candidate_poses(const TriangleMesh& truth, const ScannerSpec& s, const Rig& rig,
+                                  const scanner::VirtualScanner& sc, const ScannableOptions& o) {
   const double d = s.optimal_distance();
-
   std::vector<Pose> poses;
   if (o.surface_views > 0) {
     Rng rng(o.seed);
@@ -77,6 +57,47 @@ ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerS
     for (std::size_t i = 0; i < ico.vertices.size() && static_cast<int>(i) < o.sphere_views; ++i)
       poses.push_back(looking_at(c + d * ico.vertices[i].normalized(), c));
   }
+
+  return poses;
+}
+
+}  // namespace
+
+void ScannableOptions::validate(const std::string& what) const {
+  schema::check(*this, what);
+  AUTOSCAN_REQUIRE(surface_views + sphere_views > 0, "{}: need at least one view", what);
+}
+
+std::vector<Pose> scannable_views(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig,
+                                  const ScannableOptions& o) {
+  AUTOSCAN_REQUIRE(!truth.empty(), "scannable: empty truth mesh");
+  o.validate();
+  scanner::VirtualScannerOptions so;
+  so.rig = rig;
+  so.fixtures = fixture_meshes(rig);
+  const scanner::VirtualScanner sc(truth, spec, so);
+  return candidate_poses(truth, spec, rig, sc, o);
+}
+
+ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,
+                                       const ScannableOptions& o) {
+  AUTOSCAN_REQUIRE(!truth.empty(), "scannable: empty truth mesh");
+  AUTOSCAN_REQUIRE(std::isfinite(voxel) && voxel > 0.0, "scannable: voxel must be > 0 (got {})", voxel);
+  o.validate();
+  const Stopwatch clock;
+  ScannerSpec s = spec;
+  s.noise = NoiseSpec{};
+  s.width = std::max(16, spec.width / o.resolution_divisor);
+  s.height = std::max(16, spec.height / o.resolution_divisor);
+  scanner::VirtualScannerOptions so;
+  so.rig = rig;
+  so.fixtures = fixture_meshes(rig);  // the fixtures occlude here as in the loop
+  const scanner::VirtualScanner sc(truth, s, so);
+  // The object's points within a fixture's tolerance are removed by any session (the contact rim,
+  // docs/supports.md): not scannable surface either.
+  const session::FixtureGeometry fixtures(rig);
+
+  const std::vector<Pose> poses = candidate_poses(truth, s, rig, sc, o);
 
   // Scan in parallel; merge into a voxel set (deterministic: the set of occupied voxels does not
   // depend on the order, and the output is sorted by voxel key).
@@ -118,6 +139,22 @@ ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerS
   log::debug("scannable: {} views scanned, {} skipped, {} reference points, {:.1f} s", out.views_scanned,
              out.views_skipped, out.cloud.size(), out.seconds);
   return out;
+}
+
+PointCloud cached_scannable_reference(const std::filesystem::path& path, const TriangleMesh& truth,
+                                      const ScannerSpec& spec, const Rig& rig, double tau,
+                                      const ScannableOptions& options) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) return io::read_point_cloud(path);
+  const double voxel = 0.25 * tau * truth.bounds().diagonal();
+  auto ref = scannable_reference(truth, spec, rig, voxel, options);
+  log::info("simulate: scannable reference from {} views ({} skipped): {} points, {:.1f} s", ref.views_scanned,
+            ref.views_skipped, ref.cloud.size(), ref.seconds);
+  if (!path.parent_path().empty()) std::filesystem::create_directories(path.parent_path());
+  io::WriteOptions exact;
+  exact.double_coordinates = true;
+  io::write_point_cloud(path, ref.cloud, exact);
+  return std::move(ref.cloud);
 }
 
 }  // namespace autoscan::simulation

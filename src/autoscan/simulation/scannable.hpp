@@ -18,10 +18,13 @@
 // and their points — and the object's within a fixture's tolerance, which sessions remove — are not
 // in the reference.
 #include <cstdint>
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include "autoscan/core/mesh.hpp"
 #include "autoscan/core/point_cloud.hpp"
+#include "autoscan/core/pose.hpp"
 #include "autoscan/core/rig.hpp"
 #include "autoscan/core/scanner_spec.hpp"
 #include "autoscan/core/schema.hpp"
@@ -51,10 +54,23 @@ struct ScannableReference {
   double seconds = 0;
 };
 
+/// The reference's views, in the order scannable_reference() scans them (views the rig cannot
+/// reach or inside the object included: VirtualScanner::refusal tells them). The candidate views of
+/// the coverage oracle (oracle.hpp).
+std::vector<Pose> scannable_views(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig,
+                                  const ScannableOptions& options = {});
+
 /// Noise-free reference scans of `truth` (already in its final frame) with `spec`'s optics and
 /// rules, thinned on a grid of `voxel` (world units; e.g. τ/2). Throws InputError for an empty mesh,
 /// voxel <= 0 or options out of range.
 ScannableReference scannable_reference(const TriangleMesh& truth, const ScannerSpec& spec, const Rig& rig, double voxel,
                                        const ScannableOptions& options = {});
+
+/// The reference read from `cache` when it exists, else built (scannable_reference, voxel τ/4 of
+/// the diagonal for `tau`) and written there (double precision). The runs of a benchmark on one model
+/// share one.
+PointCloud cached_scannable_reference(const std::filesystem::path& cache, const TriangleMesh& truth,
+                                      const ScannerSpec& spec, const Rig& rig, double tau,
+                                      const ScannableOptions& options = {});
 
 }  // namespace autoscan::simulation

@@ -213,20 +213,9 @@ class Loop {
   void load_or_build_reference() {
     const fs::path path = opts_.scannable_cache.empty() ? dir_ / "scannable.ply" : opts_.scannable_cache;
     std::error_code ec;
-    if (fs::exists(path, ec)) {
-      reference_ = io::read_point_cloud(path);
-      return;
-    }
-    tick("scannable reference", 0.0);
-    const double voxel = 0.25 * opts_.eval.tau * truth_.bounds().diagonal();
-    auto ref = scannable_reference(truth_, opts_.scanner, opts_.rig, voxel, opts_.scannable_options);
-    log::info("simulate: scannable reference from {} views ({} skipped): {} points, {:.1f} s", ref.views_scanned,
-              ref.views_skipped, ref.cloud.size(), ref.seconds);
-    if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
-    io::WriteOptions exact;
-    exact.double_coordinates = true;
-    io::write_point_cloud(path, ref.cloud, exact);
-    reference_ = std::move(ref.cloud);
+    if (!fs::exists(path, ec)) tick("scannable reference", 0.0);
+    reference_ =
+        cached_scannable_reference(path, truth_, opts_.scanner, opts_.rig, opts_.eval.tau, opts_.scannable_options);
   }
   const PointCloud* reference() const { return reference_ ? &*reference_ : nullptr; }
 
