@@ -11,6 +11,7 @@
 #include "autoscan/core/session_layout.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/session/certificate.hpp"
+#include "autoscan/shapes/hard_shapes.hpp"
 #include "autoscan/shapes/paint.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/fixtures.hpp"
@@ -24,7 +25,7 @@ using autoscan::SessionLayout;
 using autoscan::simulation::SimulateOptions;
 
 struct SimCli {
-  std::string mesh, out, config, planner, rig, paint, scene;
+  std::string mesh, out, config, planner, rig, paint, scene, shape;
   // Not given: the configuration's value (every given value is validated, none means "default").
   std::optional<int> max_views, max_iterations, depth, blind_views, views_per_iteration;
   std::optional<double> noise;
@@ -260,6 +261,9 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
                   "Scan a procedural scene instead of a mesh (issue 18): church, church-drone, square or "
                   "square-drone; sets the rig (a ground mast or a drone over a ground), the scanner's range "
                   "(6-12 % of the diagonal), the blind scan and the budgets (simulation/scene.hpp)");
+  sub->add_option("--shape", o->shape,
+                  "Scan a built-in hard shape instead of a mesh (arcade, cup, overhangs, slot_and_hole: shapes that "
+                  "need many views; docs/benchmarks.md)");
   sub->add_option("--out", o->out, "Output (session) directory")->required();
   sub->add_flag("--resume", o->resume, "Continue the simulation in --out after a crash or kill");
   add_loop_options(sub, *o);
@@ -276,9 +280,20 @@ AUTOSCAN_CLI_COMMAND(simulate, 20, [](CLI::App& root, autoscan::cli::Globals& g)
                          "its recorded mesh (leave --mesh out, or start a new run in another --out)",
                          o->mesh, o->out, recorded.source.empty() ? std::string("its truth.ply") : recorded.source);
       }
+      if (!o->shape.empty() && recorded.source != "shape:" + o->shape)
+        throw autoscan::InputError(fmt::format(
+            "--shape {}: the simulation in {} was run with {}; --resume continues it with its recorded mesh", o->shape,
+            o->out, recorded.source.empty() ? std::string("its truth.ply") : recorded.source));
       r = autoscan::simulation::resume(o->out, g.progress());
     } else if (!o->scene.empty()) {
+      AUTOSCAN_REQUIRE(o->shape.empty(), "--shape {}: give one of --mesh, --scene, --shape", o->shape);
       r = run_scene(*o, g);
+    } else if (!o->shape.empty()) {
+      AUTOSCAN_REQUIRE(o->mesh.empty(), "--shape {}: give one of --mesh, --scene, --shape", o->shape);
+      const SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary
+      const auto options = build_options(*o, defaults);
+      const auto mesh = autoscan::hard_shape(o->shape);
+      r = autoscan::simulation::simulate(mesh, o->out, options, g.progress(), "shape:" + o->shape);
     } else {
       autoscan::cli::require_input_file(o->mesh, "--mesh");
       const SimulateOptions defaults;  // named: GCC 12 warns (maybe-uninitialized) about a temporary

@@ -12,7 +12,7 @@
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/io/mesh_io.hpp"
-#include "autoscan/shapes/implicit_mesher.hpp"
+#include "autoscan/shapes/hard_shapes.hpp"
 #include "autoscan/simulation/fixtures.hpp"
 #include "autoscan/simulation/simulate.hpp"
 #include "support/temp_dir.hpp"
@@ -22,42 +22,30 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The block |x| <= 0.36, |y| <= 0.2, |z| <= 0.2 (diagonal 0.92); the slot x in [-0.28, -0.16],
-// |y| <= 0.12, from the top face down to z = -0.1 (0.3 deep, 0.12 wide); the hole along Y through
-// the whole block, axis x = 0.18, z = 0, radius 0.06.
-struct SlotAndHole {
-  static constexpr double hx = 0.36, hy = 0.2, hz = 0.2;
-  static constexpr double slot_x0 = -0.28, slot_x1 = -0.16, slot_hy = 0.12, slot_floor = -0.1;
-  static constexpr double hole_x = 0.18, hole_z = 0.0, hole_r = 0.06;
+// The block of shapes/hard_shapes.hpp, |x| <= 0.36, |y| <= 0.2, |z| <= 0.2 (diagonal 0.92); the slot
+// x in [-0.28, -0.16], |y| <= 0.12, from the top face down to z = -0.1 (0.3 deep, 0.12 wide); the hole
+// along Y through the whole block, axis x = 0.18, z = 0, radius 0.06.
+struct SlotAndHoleScene {
   static constexpr double lift = -0.1;  // the block stands on the turntable's disc (its top at z = -0.3)
+  static const SlotAndHole& shape() {
+    static const SlotAndHole s;
+    return s;
+  }
   static Vec3 local(const Vec3& p) { return p - Vec3(0, 0, lift); }
-
-  static double box_sdf(const Vec3& p, const Vec3& lo, const Vec3& hi) {
-    const Vec3 c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
-    const Vec3 q = (p - c).cwiseAbs() - h;
-    return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
-  }
-  // f < 0 inside: the block minus the slot minus the hole.
-  static double sdf(const Vec3& world) {
-    const Vec3 p = local(world);
-    const double block = box_sdf(p, Vec3(-hx, -hy, -hz), Vec3(hx, hy, hz));
-    const double slot = box_sdf(p, Vec3(slot_x0, -slot_hy, slot_floor), Vec3(slot_x1, slot_hy, hz + 0.1));
-    const double hole = hole_r - std::hypot(p.x() - hole_x, p.z() - hole_z);  // > 0 inside the hole
-    return std::max({block, -slot, hole});
-  }
-  static TriangleMesh mesh() {
-    return mesh_implicit(sdf, AABB{Vec3(-0.42, -0.26, -0.26 + lift), Vec3(0.42, 0.26, 0.26 + lift)}, 168);
-  }
+  static TriangleMesh mesh() { return shape().mesh(168, Vec3(0, 0, lift)); }
   // A point on the slot's floor (what only a view into the slot measures).
   static bool on_slot_floor(const Vec3& world) {
     const Vec3 t = local(world);
+    const auto& s = shape();
     const double e = 0.01;
-    return t.x() > slot_x0 + e && t.x() < slot_x1 - e && std::abs(t.y()) < slot_hy - e && t.z() < slot_floor + 0.03;
+    return t.x() > s.slot_x0 + e && t.x() < s.slot_x1 - e && std::abs(t.y()) < s.slot_hy - e &&
+           t.z() < s.slot_floor + 0.03;
   }
   // A target on a surface across the hole (a phantom bridge): well inside the cylinder, within the block.
   static bool on_hole_bridge(const Vec3& world) {
     const Vec3 t = local(world);
-    return std::hypot(t.x() - hole_x, t.z() - hole_z) < 0.7 * hole_r && std::abs(t.y()) < hy + 0.02;
+    const auto& s = shape();
+    return std::hypot(t.x() - s.hole_x, t.z() - s.hole_z) < 0.7 * s.hole_r && std::abs(t.y()) < s.hy + 0.02;
   }
 };
 
@@ -87,7 +75,7 @@ class SlotAndHoleRound : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new fs::path(autoscan::testing::scratch_dir("sim_slot_hole", false));
-    const TriangleMesh truth = SlotAndHole::mesh();
+    const TriangleMesh truth = SlotAndHoleScene::mesh();
     ASSERT_GT(truth.faces.size(), 1000u);
     simulation::simulate(truth, *dir_, first_round_options());
   }
@@ -111,7 +99,7 @@ TEST_F(SlotAndHoleRound, TheFirstRoundMeasuresTheSlotsFloor) {
     if (round > 0) continue;
     const PointCloud pts = io::read_point_cloud(dir() / sc["file"].get<std::string>());
     std::size_t n = 0;
-    for (const auto& p : pts.positions) n += SlotAndHole::on_slot_floor(p) ? 1 : 0;
+    for (const auto& p : pts.positions) n += SlotAndHoleScene::on_slot_floor(p) ? 1 : 0;
     (round < 0 ? floor_blind : floor_first) += n;
   }
   EXPECT_GE(floor_first, 50u) << "the first round measured " << floor_first << " points of the slot's floor (blind "
@@ -129,7 +117,7 @@ TEST_F(SlotAndHoleRound, TheFirstRoundAimsNoViewAtTheHolesBridge) {
   int at_bridge = 0;
   for (const auto& v : views["views"]) {
     const Vec3 t(v["target"][0].get<double>(), v["target"][1].get<double>(), v["target"][2].get<double>());
-    if (SlotAndHole::on_hole_bridge(t)) {
+    if (SlotAndHoleScene::on_hole_bridge(t)) {
       ++at_bridge;
       ADD_FAILURE() << "a view aims at (" << t.transpose() << "), across the hole";
     }

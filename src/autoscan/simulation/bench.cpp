@@ -19,6 +19,7 @@
 #include "autoscan/eval/metrics.hpp"
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/scanner/blind_scan.hpp"
+#include "autoscan/shapes/hard_shapes.hpp"
 #include "autoscan/shapes/normalize.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/fixtures.hpp"
@@ -111,6 +112,9 @@ bool finished(const fs::path& dir, const BenchJob& j) {
 
 TriangleMesh load_model(const BenchGrid& g, const std::string& m) {
   if (m == "procedural") return ProceduralObject().mesh();
+  const auto shapes = hard_shape_names();  // the hard shapes of the curve protocol (hard_shapes.hpp)
+  if (std::find(shapes.begin(), shapes.end(), m) != shapes.end() && !fs::exists(g.models_dir / (m + ".off")))
+    return hard_shape(m);
   fs::path p = m;
   if (!fs::exists(p)) p = g.models_dir / (m + ".off");
   AUTOSCAN_REQUIRE(fs::exists(p), "bench: model '{}' not found (looked for {}; run scripts/fetch-models)", m,
