@@ -11,6 +11,7 @@
 #include "autoscan/planners/planner.hpp"
 #include "autoscan/planners/pvs_planner.hpp"
 #include "autoscan/planners/sphere_planner.hpp"
+#include "autoscan/planners/unseen_planner.hpp"
 #include "autoscan/poisson/poisson.hpp"
 
 using namespace autoscan;
@@ -108,8 +109,8 @@ PlanOutput run(const std::string& name, const SceneFixture& fx, std::uint64_t se
   return p->plan(state ? *state : fx.state, fx.poses.back(), rng);
 }
 
-const std::vector<std::string> kBaselines = {"random",     "sphere", "density", "curvature",
-                                             "visibility", "pvs",    "farthest"};
+const std::vector<std::string> kBaselines = {"random",     "sphere", "density",  "curvature",
+                                             "visibility", "pvs",    "farthest", "unseen"};
 
 void expect_valid_views(const PlanOutput& out, const ModelState& st, const std::string& name) {
   ASSERT_FALSE(out.views.empty()) << name << ": " << out.diagnostics.dump();
@@ -253,6 +254,31 @@ TEST(Baselines, DensityTargetsTheHoleAndVisibilityTheGrazingBand) {
     EXPECT_LT(view.target.z(), -0.1) << view.target.transpose();
     EXPECT_LT(view.pose.position.z(), view.target.z());
   }
+}
+
+// unseen: the same hole-in-the-cap fixture; the best view looks at the reconstruction no scan
+// measured (the cap), and the measured rest has no need at all.
+TEST(Baselines, UnseenLooksAtTheUnmeasuredCap) {
+  const auto& fx = fixture(true);
+  UnseenPlannerOptions uo;
+  uo.radius_factor = 0.03;  // the fixture's points are 0.015 apart (a real scan's, about 0.002)
+  const auto need = unseen_need(fx.state, uo);
+  ASSERT_EQ(need.size(), fx.state.iso_points.size());
+  std::size_t unseen = 0;
+  for (std::size_t i = 0; i < need.size(); ++i) {
+    EXPECT_TRUE(need[i] == 0.0 || need[i] == 1.0);
+    if (need[i] > 0) {
+      ++unseen;
+      EXPECT_GT(fx.state.iso_points.positions[i].z(), 0.0);  // only the cap's hole is unmeasured
+    }
+  }
+  EXPECT_GT(unseen, 0u);
+  const auto d = run("unseen", fx, 1);
+  ASSERT_FALSE(d.views.empty());
+  const auto best =
+      std::max_element(d.views.begin(), d.views.end(), [](const auto& a, const auto& b) { return a.score < b.score; });
+  EXPECT_GT(best->target.z(), 0.0) << best->target.transpose();
+  EXPECT_GT(best->pose.position.z(), kCapZ) << best->pose.position.transpose();
 }
 
 TEST(PoissonPlanner, IgnoresPhantomSurfaceThatScannerRaysWentThrough) {

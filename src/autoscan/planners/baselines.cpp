@@ -6,6 +6,7 @@
 #include "autoscan/planners/pvs_planner.hpp"
 #include "autoscan/planners/random_planner.hpp"
 #include "autoscan/planners/sphere_planner.hpp"
+#include "autoscan/planners/unseen_planner.hpp"
 #include "autoscan/planners/visibility_planner.hpp"
 
 namespace autoscan::planners {
@@ -18,6 +19,7 @@ void add_baseline_planners(std::map<std::string, PlannerFactory>& factories) {
   factories["visibility"] = [](const PlannerOptions& o) { return std::make_unique<VisibilityPlanner>(o); };
   factories["pvs"] = [](const PlannerOptions& o) { return std::make_unique<PvsPlanner>(o); };
   factories["farthest"] = [](const PlannerOptions& o) { return std::make_unique<FarthestPlanner>(o); };
+  factories["unseen"] = [](const PlannerOptions& o) { return std::make_unique<UnseenPlanner>(o); };
 }
 
 }  // namespace autoscan::planners
