@@ -31,7 +31,7 @@ struct SimCli {
   std::optional<double> noise;
   std::optional<std::uint64_t> seed;
   bool resume = false, no_report = false, no_eval = false, no_support = false, random_start = false;
-  std::string checkpoints;
+  std::string checkpoints, hand_eye;
 };
 
 void add_loop_options(CLI::App* sub, SimCli& o) {
@@ -50,6 +50,9 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
                 "another side");
   sub->add_option("--noise", o.noise, "Scanner noise magnitude in [0, 1] (depth noise, outliers, pose error)");
   sub->add_option("--seed", o.seed, "Seed of every random choice (default 42)");
+  sub->add_option("--hand-eye", o.hand_eye,
+                  "The robot's systematic hand-eye error tx,ty,tz,rx,ry,rz: a translation (scene units) and a "
+                  "rotation vector (degrees) in the scanner's frame, the same in every scan (noise.hand_eye_*)");
   sub->add_option("--depth", o.depth, "Poisson octree depth (default 8)");
   sub->add_option("--rig", o.rig,
                   "free, turntable_arm (the object on a turntable disc), pr2 (a free arm, the object on a table), "
@@ -84,6 +87,26 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
     base.scanner.noise.magnitude = *o.noise;
   }
   if (o.seed) base.session.seed = *o.seed;
+  if (!o.hand_eye.empty()) {
+    std::vector<double> v;
+    std::size_t pos = 0;
+    while (pos <= o.hand_eye.size()) {
+      auto comma = o.hand_eye.find(',', pos);
+      if (comma == std::string::npos) comma = o.hand_eye.size();
+      const std::string tok = o.hand_eye.substr(pos, comma - pos);
+      try {
+        std::size_t used = 0;
+        v.push_back(std::stod(tok, &used));
+        if (used != tok.size()) throw std::invalid_argument(tok);
+      } catch (const std::exception&) {
+        throw autoscan::InputError(fmt::format("--hand-eye: '{}' is not a number", tok));
+      }
+      pos = comma + 1;
+    }
+    AUTOSCAN_REQUIRE(v.size() == 6, "--hand-eye: expected tx,ty,tz,rx,ry,rz (6 numbers), got {}", v.size());
+    base.scanner.noise.hand_eye_translation = autoscan::Vec3(v[0], v[1], v[2]);
+    base.scanner.noise.hand_eye_rotation_deg = autoscan::Vec3(v[3], v[4], v[5]);
+  }
   if (o.views_per_iteration) {
     AUTOSCAN_REQUIRE(*o.views_per_iteration >= 1, "--views-per-iteration must be >= 1, got {}", *o.views_per_iteration);
     base.session.nbv.max_views = *o.views_per_iteration;
@@ -155,6 +178,15 @@ void refuse_changed_options(const SimCli& o, const SimulateOptions& rec, const s
   if (o.max_iterations && *o.max_iterations != rec.session.max_iterations)
     refuse("--max-iterations", std::to_string(*o.max_iterations), std::to_string(rec.session.max_iterations));
   if (!o.paint.empty() && o.paint != rec.paint) refuse("--paint", o.paint, rec.paint);
+  if (!o.hand_eye.empty()) {
+    SimCli only;
+    only.hand_eye = o.hand_eye;
+    const auto given = build_options(only, rec).scanner.noise;
+    if (given.hand_eye_translation != rec.scanner.noise.hand_eye_translation ||
+        given.hand_eye_rotation_deg != rec.scanner.noise.hand_eye_rotation_deg)
+      refuse("--hand-eye", o.hand_eye,
+             autoscan::to_json(rec.scanner)["noise"].value("hand_eye_translation", nlohmann::json()).dump());
+  }
   if (o.views_per_iteration && *o.views_per_iteration != rec.session.nbv.max_views)
     refuse("--views-per-iteration", std::to_string(*o.views_per_iteration), std::to_string(rec.session.nbv.max_views));
   if (o.blind_views && *o.blind_views != rec.blind.views)

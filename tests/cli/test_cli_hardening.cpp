@@ -108,7 +108,14 @@ TEST(CliHardening, NegativeOrOutOfRangeOptionsAreRefusedBeforeAnyWork) {
                   {sim + " --noise -1", "--noise"},
                   {sim + " --seed -2", "--seed"},
                   {sim + " --blind-views 0", "--blind-views"},
-                  {sim + " --views-per-iteration 0", "--views-per-iteration"}},
+                  {sim + " --views-per-iteration 0", "--views-per-iteration"},
+                  {sim + " --shape cup", "give one of --mesh, --scene, --shape"},
+                  {sim + " --hand-eye 0.005,0,0,1,0", "--hand-eye"},
+                  {sim + " --hand-eye 0.005,0,0,1,0,x", "--hand-eye"},
+                  {sim + " --hand-eye 0,0,0,200,0,0", "hand_eye_rotation_deg"},
+                  {"simulate --shape teapot --out " + q(sim_out), "unknown shape 'teapot'"},
+                  {"bench --protocol spiral --out " + q(sim_out), "protocol"},
+                  {"bench --planners oracle --out " + q(sim_out), "curve protocol"}},
                  out);
   EXPECT_FALSE(fs::exists(sim_out / "session.json"));
   // The largest scan id a PLY float holds exactly is accepted.

@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <set>
 #include <unordered_map>
@@ -288,6 +289,42 @@ TEST(VirtualScanner, KnownPoseErrorGivesARigidMisalignmentOfThatSize) {
   EXPECT_NEAR((actual.position - commanded.position).norm(), shift.norm(), 1e-12);
   // The reported sensor position is the commanded one.
   EXPECT_EQ(misaligned.cloud.scalars.get("sensor_x").front(), commanded.position.x());
+}
+
+// The systematic hand-eye error (issue 45): the true pose is commanded ∘ H in every scan, H in the
+// scanner's frame; the scan is the one scan_from() takes from there, and the JSON form round-trips
+// (and stays out of the files of runs without it).
+TEST(VirtualScanner, HandEyeErrorIsTheSameScannerFrameMotionInEveryScan) {
+  const TriangleMesh mesh = merge(icosphere(3, kR), box(Vec3(-0.2, -0.45, -0.1), Vec3(0.1, -0.3, 0.25)));
+  ScannerSpec spec = small_spec();
+  spec.noise.hand_eye_translation = Vec3(0.005, -0.002, 0.001);
+  spec.noise.hand_eye_rotation_deg = Vec3(0.5, 1.0, -1.2);  // 1.64 degrees
+  const VirtualScanner scanner(mesh, spec);
+  Eigen::Isometry3d H = Eigen::Isometry3d::Identity();
+  const Vec3 rv = spec.noise.hand_eye_rotation_deg * kDeg;
+  H.linear() = Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
+  H.translation() = spec.noise.hand_eye_translation;
+  for (const Pose& commanded :
+       {Pose::look_at(Vec3(1.0, -0.6, 0.3), Vec3::Zero()), Pose::look_at(Vec3(-0.4, 1.1, -0.2), Vec3::Zero())}) {
+    const ScanResult r = scanner.scan(commanded, 3, 7);
+    const Eigen::Isometry3d truth = commanded.world_from_camera() * H;
+    EXPECT_TRUE(r.actual.world_from_camera().isApprox(truth, 1e-9));
+    EXPECT_TRUE(r.misalignment.isApprox(commanded.world_from_camera() * truth.inverse(), 1e-9));
+    // The offset is H's in the scanner's frame: the sensor sits |t| away, turned by |rv|.
+    EXPECT_NEAR((r.actual.position - commanded.position).norm(), spec.noise.hand_eye_translation.norm(), 1e-12);
+    EXPECT_LE(angle_deg(r.actual.direction, commanded.direction), spec.noise.hand_eye_rotation_deg.norm() + 1e-9);
+    const ScanResult same = scanner.scan_from(commanded, r.actual, 3, 7);
+    ASSERT_EQ(same.cloud.size(), r.cloud.size());
+    for (std::size_t i = 0; i < r.cloud.size(); i += 97)
+      EXPECT_NEAR((same.cloud.positions[i] - r.cloud.positions[i]).norm(), 0.0, 1e-9);
+  }
+  const ScannerSpec back = scanner_from_json(to_json(spec), "spec");
+  EXPECT_EQ(back.noise.hand_eye_translation, spec.noise.hand_eye_translation);
+  EXPECT_EQ(back.noise.hand_eye_rotation_deg, spec.noise.hand_eye_rotation_deg);
+  EXPECT_FALSE(to_json(ScannerSpec{})["noise"].contains("hand_eye_translation"));
+  nlohmann::json bad = to_json(spec);
+  bad["noise"]["hand_eye_rotation_deg"] = {1, 2};
+  EXPECT_THROW(scanner_from_json(bad, "spec"), InputError);
 }
 
 TEST(VirtualScanner, NoisePoseErrorHasTheSpecifiedSize) {

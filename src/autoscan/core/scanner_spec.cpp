@@ -49,6 +49,10 @@ void ScannerSpec::validate(const std::string& what) const {
     AUTOSCAN_REQUIRE(std::isfinite(v) && v >= 0 && v <= kMaxCoordinate,
                      "{}: noise parameters must be finite, >= 0 and <= {:g}, got {}", what, kMaxCoordinate, v);
   AUTOSCAN_REQUIRE(n.outlier_fraction <= 1, "{}: outlier_fraction must be <= 1", what);
+  AUTOSCAN_REQUIRE(n.hand_eye_translation.allFinite() && n.hand_eye_translation.norm() <= kMaxCoordinate,
+                   "{}: noise hand_eye_translation must be finite and at most {:g} long", what, kMaxCoordinate);
+  AUTOSCAN_REQUIRE(n.hand_eye_rotation_deg.allFinite() && n.hand_eye_rotation_deg.norm() <= 180.0,
+                   "{}: noise hand_eye_rotation_deg must be a rotation vector of at most 180 degrees", what);
   AUTOSCAN_REQUIRE(n.color_sigma <= 255, "{}: noise color_sigma must be <= 255, got {}", what, n.color_sigma);
   AUTOSCAN_REQUIRE(n.exposure_sigma <= 5, "{}: noise exposure_sigma must be <= 5, got {}", what, n.exposure_sigma);
   AUTOSCAN_REQUIRE(std::isfinite(ambient) && ambient >= 0 && ambient <= 1, "{}: ambient must be in [0, 1], got {}",
@@ -57,26 +61,34 @@ void ScannerSpec::validate(const std::string& what) const {
 
 nlohmann::json to_json(const ScannerSpec& s) {
   const auto& n = s.noise;
-  return {{"near", s.near},
-          {"far", s.far},
-          {"fov_deg", s.fov_deg},
-          {"width", s.width},
-          {"height", s.height},
-          {"baseline", s.baseline},
-          {"projector_fov_deg", s.projector_fov_deg},
-          {"max_incidence_deg", s.max_incidence_deg},
-          {"ambient", s.ambient},
-          {"noise",
-           {{"magnitude", n.magnitude},
-            {"depth_sigma", n.depth_sigma},
-            {"depth_distance_power", n.depth_distance_power},
-            {"depth_incidence_gain", n.depth_incidence_gain},
-            {"outlier_fraction", n.outlier_fraction},
-            {"outlier_range", n.outlier_range},
-            {"pose_translation_sigma", n.pose_translation_sigma},
-            {"pose_rotation_sigma_deg", n.pose_rotation_sigma_deg},
-            {"color_sigma", n.color_sigma},
-            {"exposure_sigma", n.exposure_sigma}}}};
+  nlohmann::json j = {{"near", s.near},
+                      {"far", s.far},
+                      {"fov_deg", s.fov_deg},
+                      {"width", s.width},
+                      {"height", s.height},
+                      {"baseline", s.baseline},
+                      {"projector_fov_deg", s.projector_fov_deg},
+                      {"max_incidence_deg", s.max_incidence_deg},
+                      {"ambient", s.ambient},
+                      {"noise",
+                       {{"magnitude", n.magnitude},
+                        {"depth_sigma", n.depth_sigma},
+                        {"depth_distance_power", n.depth_distance_power},
+                        {"depth_incidence_gain", n.depth_incidence_gain},
+                        {"outlier_fraction", n.outlier_fraction},
+                        {"outlier_range", n.outlier_range},
+                        {"pose_translation_sigma", n.pose_translation_sigma},
+                        {"pose_rotation_sigma_deg", n.pose_rotation_sigma_deg},
+                        {"color_sigma", n.color_sigma},
+                        {"exposure_sigma", n.exposure_sigma}}}};
+  // The hand-eye error only where there is one: the files of runs without it stay as they were.
+  if (n.has_hand_eye()) {
+    j["noise"]["hand_eye_translation"] = {n.hand_eye_translation.x(), n.hand_eye_translation.y(),
+                                          n.hand_eye_translation.z()};
+    j["noise"]["hand_eye_rotation_deg"] = {n.hand_eye_rotation_deg.x(), n.hand_eye_rotation_deg.y(),
+                                           n.hand_eye_rotation_deg.z()};
+  }
+  return j;
 }
 
 namespace {
@@ -96,6 +108,14 @@ void read_field(const nlohmann::json& j, const char* key, T& out, const std::str
   } else {
     out = d;
   }
+}
+
+void read_vec3(const nlohmann::json& j, const char* key, Vec3& out, const std::string& what) {
+  if (!j.contains(key)) return;
+  const auto& v = j.at(key);
+  AUTOSCAN_REQUIRE(v.is_array() && v.size() == 3 && v[0].is_number() && v[1].is_number() && v[2].is_number(),
+                   "{}: 'noise.{}' must be an array of 3 numbers", what, key);
+  out = Vec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
 }
 
 }  // namespace
@@ -122,11 +142,11 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
       s.noise.magnitude = n.get<double>();
     } else {
       AUTOSCAN_REQUIRE(n.is_object(), "{}: 'noise' must be a number or an object", what);
-      require_known_fields(
-          n,
-          {"magnitude", "depth_sigma", "depth_distance_power", "depth_incidence_gain", "outlier_fraction",
-           "outlier_range", "pose_translation_sigma", "pose_rotation_sigma_deg", "color_sigma", "exposure_sigma"},
-          what, "noise.");
+      require_known_fields(n,
+                           {"magnitude", "depth_sigma", "depth_distance_power", "depth_incidence_gain",
+                            "outlier_fraction", "outlier_range", "pose_translation_sigma", "pose_rotation_sigma_deg",
+                            "color_sigma", "exposure_sigma", "hand_eye_translation", "hand_eye_rotation_deg"},
+                           what, "noise.");
       read_field(n, "magnitude", s.noise.magnitude, what);
       read_field(n, "depth_sigma", s.noise.depth_sigma, what);
       read_field(n, "depth_distance_power", s.noise.depth_distance_power, what);
@@ -137,6 +157,8 @@ ScannerSpec scanner_from_json(const nlohmann::json& j, const std::string& what) 
       read_field(n, "pose_rotation_sigma_deg", s.noise.pose_rotation_sigma_deg, what);
       read_field(n, "color_sigma", s.noise.color_sigma, what);
       read_field(n, "exposure_sigma", s.noise.exposure_sigma, what);
+      read_vec3(n, "hand_eye_translation", s.noise.hand_eye_translation, what);
+      read_vec3(n, "hand_eye_rotation_deg", s.noise.hand_eye_rotation_deg, what);
     }
   }
   s.validate(what);

@@ -7,6 +7,8 @@
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
+#include "autoscan/core/types.hpp"
+
 namespace autoscan {
 
 /// Noise of the virtual scanner, in the spirit of Berger et al. 2013. `magnitude` in [0, 1] scales
@@ -25,6 +27,14 @@ struct NoiseSpec {
   /// Exposure differences between scans: each scan's colours are multiplied by exp(N(0, σ)), σ this
   /// value (so one scan may be darker, another over-exposed and clipped at 255).
   double exposure_sigma = 0.15;
+  /// The robot's systematic error (issue 45): a hand-eye (flange-to-scanner) calibration that is
+  /// off by the same motion in every scan, the true scanner pose = commanded ∘ H with H the
+  /// rotation `hand_eye_rotation_deg` (a rotation vector in degrees, the scanner's frame) and the
+  /// translation `hand_eye_translation` (world units, the scanner's frame), before the random part
+  /// above. Not scaled by `magnitude`: a calibration error is given as it is. Zero: none.
+  Vec3 hand_eye_translation = Vec3::Zero();
+  Vec3 hand_eye_rotation_deg = Vec3::Zero();
+  bool has_hand_eye() const { return !hand_eye_translation.isZero(0.0) || !hand_eye_rotation_deg.isZero(0.0); }
 };
 
 struct ScannerSpec {
