@@ -35,8 +35,9 @@ struct SimCli {
 };
 
 void add_loop_options(CLI::App* sub, SimCli& o) {
-  sub->add_option("--planner", o.planner,
-                  "View planner: poisson (ours), random, sphere, density, curvature, visibility, pvs");
+  sub->add_option(
+      "--planner", o.planner,
+      "View planner: poisson (ours), random, sphere, density, curvature, visibility, pvs, farthest, unseen");
   sub->add_option("--max-views", o.max_views, "Budget of next-best-view scans (default 200)");
   sub->add_option("--max-iterations", o.max_iterations, "Budget of iterations (default 15)");
   sub->add_option("--views-per-iteration", o.views_per_iteration,
