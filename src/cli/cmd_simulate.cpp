@@ -69,6 +69,33 @@ void add_loop_options(CLI::App* sub, SimCli& o) {
   sub->add_flag("--no-eval", o.no_eval, "Do not compute ground-truth figures per iteration");
 }
 
+// A comma-separated list of numbers (--checkpoints, --hand-eye); a token that is not one (for
+// doubles: not one whole) is an InputError naming the option.
+template <typename T>
+std::vector<T> number_list(const std::string& text, const char* option) {
+  std::vector<T> out;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    auto comma = text.find(',', pos);
+    if (comma == std::string::npos) comma = text.size();
+    const std::string tok = text.substr(pos, comma - pos);
+    try {
+      std::size_t used = 0;
+      if constexpr (std::is_same_v<T, int>) {
+        out.push_back(std::stoi(tok));
+      } else {
+        out.push_back(std::stod(tok, &used));
+        if (used != tok.size()) throw std::invalid_argument(tok);
+      }
+    } catch (const std::exception&) {
+      throw autoscan::InputError(
+          fmt::format("{}: '{}' is not {}", option, tok, std::is_same_v<T, int> ? "an integer" : "a number"));
+    }
+    pos = comma + 1;
+  }
+  return out;
+}
+
 SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   if (!o.config.empty()) {
     autoscan::cli::require_input_file(o.config, "--config");
@@ -89,21 +116,7 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   }
   if (o.seed) base.session.seed = *o.seed;
   if (!o.hand_eye.empty()) {
-    std::vector<double> v;
-    std::size_t pos = 0;
-    while (pos <= o.hand_eye.size()) {
-      auto comma = o.hand_eye.find(',', pos);
-      if (comma == std::string::npos) comma = o.hand_eye.size();
-      const std::string tok = o.hand_eye.substr(pos, comma - pos);
-      try {
-        std::size_t used = 0;
-        v.push_back(std::stod(tok, &used));
-        if (used != tok.size()) throw std::invalid_argument(tok);
-      } catch (const std::exception&) {
-        throw autoscan::InputError(fmt::format("--hand-eye: '{}' is not a number", tok));
-      }
-      pos = comma + 1;
-    }
+    const auto v = number_list<double>(o.hand_eye, "--hand-eye");
     AUTOSCAN_REQUIRE(v.size() == 6, "--hand-eye: expected tx,ty,tz,rx,ry,rz (6 numbers), got {}", v.size());
     base.scanner.noise.hand_eye_translation = autoscan::Vec3(v[0], v[1], v[2]);
     base.scanner.noise.hand_eye_rotation_deg = autoscan::Vec3(v[3], v[4], v[5]);
@@ -139,20 +152,7 @@ SimulateOptions build_options(const SimCli& o, SimulateOptions base) {
   if (o.no_report) base.report = false;
   if (o.no_eval) base.evaluate = false;
   if (!o.checkpoints.empty()) {
-    base.checkpoints.clear();
-    std::string s = o.checkpoints;
-    std::size_t pos = 0;
-    while (pos < s.size()) {
-      auto comma = s.find(',', pos);
-      if (comma == std::string::npos) comma = s.size();
-      const std::string tok = s.substr(pos, comma - pos);
-      try {
-        base.checkpoints.push_back(std::stoi(tok));
-      } catch (const std::exception&) {
-        throw autoscan::InputError(fmt::format("--checkpoints: '{}' is not an integer", tok));
-      }
-      pos = comma + 1;
-    }
+    base.checkpoints = number_list<int>(o.checkpoints, "--checkpoints");
   }
   base.validate();
   return base;

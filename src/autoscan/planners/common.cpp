@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <span>
 
 #include "autoscan/core/error.hpp"
@@ -48,6 +49,21 @@ std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const
   const Pose pose = Pose::look_at(*p, target).normalized();
   if (!rig.reachable(pose)) return std::nullopt;
   return pose;
+}
+
+std::vector<Pose> view_sphere_candidates(const ModelState& state, const Vec3& center, int n) {
+  const bool rig_sphere = state.rig.kind == Rig::Kind::view_sphere;
+  const Vec3 sphere_center = rig_sphere ? Vec3::Zero() : center;
+  const double radius = rig_sphere ? state.rig.sphere_radius : state.scanner.optimal_distance();
+  std::vector<Pose> cands;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Vec3 dir(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    if (auto pose = place_view(state.rig, state.scanner, sphere_center + radius * dir, center)) cands.push_back(*pose);
+  }
+  return cands;
 }
 
 Vec3 object_center(const ModelState& state) {

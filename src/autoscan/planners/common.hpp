@@ -40,6 +40,11 @@ std::optional<Pose> place_view(const Rig& rig, const ScannerSpec& scanner, const
 /// or the origin).
 Vec3 object_center(const ModelState& state);
 
+/// `n` candidate views on the view sphere (Fibonacci points): radius d_o around `center`, or the
+/// rig's own sphere for a view_sphere rig, each aimed at `center` and placed with place_view (those
+/// it drops are left out). Used by `sphere` and `farthest`.
+std::vector<Pose> view_sphere_candidates(const ModelState& state, const Vec3& center, int n);
+
 /// Picks, in order of decreasing score, at most `k` views whose positions are pairwise at least
 /// `min_separation` apart. Ties keep input order (stable, deterministic).
 std::vector<PlannedView> pick_separated(std::vector<PlannedView> views, int k, double min_separation);

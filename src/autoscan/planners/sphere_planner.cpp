@@ -80,19 +80,7 @@ PlanOutput SpherePlanner::plan(const ModelState& state, const Pose& current, Rng
 
   // Candidates on the view sphere.
   const Vec3 center = detail::object_center(state);
-  const bool rig_sphere = state.rig.kind == Rig::Kind::view_sphere;
-  const Vec3 sphere_center = rig_sphere ? Vec3::Zero() : center;
-  const double radius = rig_sphere ? state.rig.sphere_radius : state.scanner.optimal_distance();
-  std::vector<Pose> cands;
-  const int n = options_.candidates;
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < n; ++i) {
-    const double z = 1.0 - 2.0 * (i + 0.5) / n;
-    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const Vec3 dir(r * std::cos(golden * i), r * std::sin(golden * i), z);
-    if (auto pose = detail::place_view(state.rig, state.scanner, sphere_center + radius * dir, center))
-      cands.push_back(*pose);
-  }
+  const std::vector<Pose> cands = detail::view_sphere_candidates(state, center, options_.candidates);
 
   // The unknown voxels each candidate sees (sorted, unique).
   const double tx = std::tan(0.5 * state.scanner.fov_deg * std::numbers::pi / 180.0);
