@@ -10,6 +10,7 @@
 #include "autoscan/planners/common.hpp"
 #include "autoscan/planners/miss_evidence.hpp"
 #include "autoscan/planners/sphere_planner.hpp"
+#include "autoscan/planners/view_gain.hpp"
 #include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan::planners {
@@ -38,9 +39,17 @@ namespace {
 /// of facades the blind ring saw), no estimate of a surface; views aimed there return nothing. Those
 /// iso-points draw no views (f = 1; they stay in the geometry of the search space), so the views
 /// extend the frontier of what was measured.
+/// Beyond the paper, for exploration from little data (issue 43): the predicted gain (view_gain.hpp).
+/// The field proposes `gain_field_views` views, the view sphere around the measured part adds
+/// `gain_sphere_views`, and a virtual scan of the model scores every one by the need (1 − f) of the
+/// iso-points it would measure; the round takes the best `max_views` greedily with diminishing
+/// returns. Phantoms and iso-points beyond the frontier have no need; with the frontier on (scenes)
+/// the sphere adds nothing (its views aim at the scene's centre from d_o).
 /// Params: phantom_suppression (true), phantom_grid_resolution (128), phantom_stop_cells (2),
 /// max_rays_per_scan (30000), phantom_miss_scans (1; 0 = off), phantom_miss_block_px (0 = width/640,
-/// at least 1), phantom_miss_margin_deg (15).
+/// at least 1), phantom_miss_margin_deg (15), predicted_gain (true; false = the paper's selection
+/// alone), gain_field_views (10), gain_sphere_views (128), gain_rays (64 across the image),
+/// gain_min (1: the least gain, in iso-points of need, of a view taken).
 struct PoissonPlannerParams {
   bool phantom_suppression = true;
   int phantom_grid_resolution = 128;
@@ -49,6 +58,11 @@ struct PoissonPlannerParams {
   int phantom_miss_scans = 1;
   int phantom_miss_block_px = 0;
   double phantom_miss_margin_deg = 15.0;
+  bool predicted_gain = true;
+  int gain_field_views = 10;
+  int gain_sphere_views = 128;
+  int gain_rays = 64;
+  double gain_min = 1.0;
   template <class V>
   void visit_fields(V& v) {
     v("phantom_suppression", phantom_suppression);
@@ -58,6 +72,11 @@ struct PoissonPlannerParams {
     v("phantom_miss_scans", phantom_miss_scans, schema::closed(0, 1000));
     v("phantom_miss_block_px", phantom_miss_block_px, schema::closed(0, 4096));
     v("phantom_miss_margin_deg", phantom_miss_margin_deg, schema::closed(0, 90));
+    v("predicted_gain", predicted_gain);
+    v("gain_field_views", gain_field_views, schema::closed(0, 1000));
+    v("gain_sphere_views", gain_sphere_views, schema::closed(0, 100000));
+    v("gain_rays", gain_rays, schema::closed(1, 4096));
+    v("gain_min", gain_min, schema::at_least(0));
   }
 };
 
@@ -75,6 +94,9 @@ class PoissonPlanner final : public Planner {
     miss_block_ = p.phantom_miss_block_px;
     miss_options_.incidence_margin_deg = p.phantom_miss_margin_deg;
     miss_options_.stop_at = p.phantom_miss_scans;
+    gain_ = p;
+    field_options_ = options_.nbv;
+    if (gain_.predicted_gain) field_options_.max_views = std::max(field_options_.max_views, gain_.gain_field_views);
   }
   std::string name() const override { return "poisson"; }
 
@@ -109,7 +131,7 @@ class PoissonPlanner final : public Planner {
     AUTOSCAN_REQUIRE(!state.iso_points.empty() && state.iso_points.scalars.has("f"),
                      "planner 'poisson': the model has no iso-points with confidence 'f'");
     if (!nbv_)
-      nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, options_.nbv);
+      nbv_ = std::make_unique<nbv::NbvPlanner>(state.mesh, state.scanner, state.rig, field_options_);
     else {
       nbv_->set_mesh(state.mesh);
       nbv_->set_rig(state.rig);  // a support plane found since, poses the robot refused
@@ -157,6 +179,12 @@ class PoissonPlanner final : public Planner {
         }
       iso.scalars.set("f", std::move(f));
     }
+    // The need of every iso-point for the predicted gain: none for phantoms and beyond the frontier.
+    std::vector<double> need(iso.size(), 0.0);
+    {
+      const auto f = iso.scalars.get("f");
+      for (std::size_t i = 0; i < iso.size(); ++i) need[i] = phantom[i] ? 0.0 : std::clamp(1.0 - f[i], 0.0, 1.0);
+    }
     if (phantom_) {
       // A phantom is not there: no view aims at it (Eq. 5's target), and it is not the confident
       // surface Eq. 5's η looks for; the planner does not see it at all.
@@ -168,10 +196,16 @@ class PoissonPlanner final : public Planner {
     }
     auto result = std::make_shared<nbv::PlanResult>(nbv_->plan(iso, current, state.field.get(), options_.progress));
     PlanOutput out;
-    out.views.reserve(result->views.size());
-    for (const auto& v : result->views) out.views.push_back({v.pose, v.score, v.target});
-    out.path_length = result->path_length;
+    if (gain_.predicted_gain) {
+      out = pick_by_predicted_gain(state, *result, need, current);
+    } else {
+      out.views.reserve(result->views.size());
+      for (const auto& v : result->views) out.views.push_back({v.pose, v.score, v.target});
+      out.path_length = result->path_length;
+    }
+    const nlohmann::json picked = out.diagnostics;
     out.diagnostics = nbv::diagnostics_to_json(result->diagnostics);
+    if (!picked.empty()) out.diagnostics["predicted_gain"] = picked;
     out.diagnostics["phantom_iso_points"] = phantoms + miss_phantoms;
     out.diagnostics["phantom_iso_points_seen_through"] = miss_phantoms;
     if (options_.nbv.frontier_range > 0) out.diagnostics["iso_points_beyond_frontier"] = n_beyond;
@@ -184,6 +218,45 @@ class PoissonPlanner final : public Planner {
 
  private:
   void carve() { rays_.integrate_into(grid_, stop_cells_ * grid_.cell()); }
+
+  // The round's views by predicted gain (view_gain.hpp) among the field's views and the view
+  // sphere's; `need` per iso-point of state.iso_points. Diagnostics: the candidates of each kind,
+  // the views taken from the sphere, the gains.
+  PlanOutput pick_by_predicted_gain(const ModelState& state, const nbv::PlanResult& field,
+                                    const std::vector<double>& need, const Pose& current) const {
+    std::vector<PlannedView> cands;
+    for (const auto& v : field.views) cands.push_back({v.pose, v.score, v.target});
+    const std::size_t n_field = cands.size();
+    // The view sphere around the measured part fits an object; a scene (the frontier on) is
+    // explored from its frontier, by the field's views alone.
+    const Vec3 center = detail::object_center(state);
+    if (!(options_.nbv.frontier_range > 0.0))
+      for (const Pose& p : detail::view_sphere_candidates(state, center, gain_.gain_sphere_views))
+        cands.push_back({p, 0.0, center});
+    PlanOutput out;
+    nlohmann::json gains = nlohmann::json::array();
+    std::size_t from_sphere = 0;
+    if (!cands.empty()) {
+      std::vector<Pose> poses;
+      for (const auto& c : cands) poses.push_back(c.pose);
+      const ViewGain gain(state.mesh, state.iso_points.positions, state.scanner, gain_.gain_rays);
+      const auto picks = pick_by_gain(gain.seen(poses), need, options_.nbv.max_views, gain_.gain_min);
+      std::vector<PlannedView> views;
+      for (const auto& pick : picks) {
+        PlannedView v = cands[pick.candidate];
+        v.score = pick.gain;
+        views.push_back(v);
+        gains.push_back(pick.gain);
+        if (pick.candidate >= n_field) ++from_sphere;
+      }
+      out = detail::finish_output(state.rig, current, std::move(views));
+    }
+    out.diagnostics = {{"field_candidates", n_field},
+                       {"sphere_candidates", cands.size() - n_field},
+                       {"from_sphere", from_sphere},
+                       {"gains", gains}};
+    return out;
+  }
 
   // Iso-points the depth images show to be phantoms (miss_evidence.hpp) get f = 1; `open` marks the
   // candidates (cleared for each find). A phantom can hide another one (a surface plugging a hole
@@ -219,6 +292,8 @@ class PoissonPlanner final : public Planner {
     return found;
   }
   PlannerOptions options_;
+  PoissonPlannerParams gain_;      ///< the predicted-gain params (and the rest, read once)
+  nbv::NbvOptions field_options_;  ///< options_.nbv, with the field's views raised to gain_field_views
   std::unique_ptr<nbv::NbvPlanner> nbv_;
   bool phantom_ = true;
   int grid_resolution_ = 128;
