@@ -95,6 +95,47 @@ TEST(Certificate, FindsTheLowConfidencePatchWithItsAreaAndPlace) {
   EXPECT_NEAR(r.expected_accuracy, 0.00225, 1e-12);
 }
 
+// The model's expected accuracy is never 0 (issue 45): with a noise-free scanner it is how far the
+// points lie from the surface; without points, the mesh's quantisation.
+TEST(Certificate, ExpectedAccuracyComesFromTheModelWhenTheScannerIsNoiseFree) {
+  const auto mesh = patch_mesh(0.05);
+  PointCloud off = square_points(0.0);
+  // Every other point 0.002 above the surface, the others on it: RMS 0.002 / √2; one outlier 1.0
+  // away in the largest 5 % does not count.
+  for (std::size_t i = 0; i < off.size(); i += 2) off.positions[i].z() = 0.002;
+  off.positions[1].z() = 1.0;
+  const auto c = compute_certificate(0, mesh, iso_of(mesh), off, ScannerSpec{}, StopOptions{}, nullptr);
+  EXPECT_EQ(c.scanner_accuracy, 0.0);
+  EXPECT_NEAR(c.fit_residual, 0.002 / std::sqrt(2.0), 2e-4);
+  EXPECT_NEAR(c.expected_accuracy, c.fit_residual, 1e-12);
+  ASSERT_EQ(c.regions.size(), 1u);
+  EXPECT_NEAR(c.regions[0].expected_accuracy, 0.002 / std::sqrt(2.0), 3e-4);
+  // Noisy scanner and residual add in quadrature.
+  const auto n = compute_certificate(0, mesh, iso_of(mesh), off, noisy_scanner(), StopOptions{}, nullptr);
+  EXPECT_NEAR(n.expected_accuracy, std::hypot(0.00225, n.fit_residual), 1e-12);
+  // No points: the quantisation of a 0.025 grid (mean edge of the right triangles ~0.0285).
+  const auto q = compute_certificate(0, mesh, iso_of(mesh), PointCloud{}, ScannerSpec{}, StopOptions{}, nullptr);
+  EXPECT_GT(q.expected_accuracy, 0.025 / std::sqrt(12.0));
+  EXPECT_LT(q.expected_accuracy, 0.036 / std::sqrt(12.0));
+  // The figures round-trip; DONE states what it tolerates.
+  const auto back = certificate_from_json(to_json(n));
+  EXPECT_EQ(back.fit_residual, n.fit_residual);
+  EXPECT_EQ(back.scanner_accuracy, n.scanner_accuracy);
+  EXPECT_EQ(back.tolerated_share, StopOptions{}.remaining_share);
+  Certificate done = n;
+  done.done = true;
+  done.share_improvable = 0.0068;
+  const std::string text = describe(done);
+  EXPECT_NE(text.find("under the 1.00 % tolerated"), std::string::npos) << text;
+  EXPECT_NE(text.find("points to surface"), std::string::npos) << text;
+  // An older certificate without the new figures still reads.
+  auto old = to_json(n);
+  old.erase("fit_residual");
+  old.erase("scanner_accuracy");
+  old.erase("tolerated_share");
+  EXPECT_EQ(certificate_from_json(old).scanner_accuracy, n.expected_accuracy);
+}
+
 TEST(Certificate, AHoleInTheDataIsNotScanned) {
   const auto mesh = patch_mesh(0.05);
   const auto c =

@@ -4,6 +4,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <span>
 
 #include "autoscan/core/error.hpp"
 #include "autoscan/planners/baselines.hpp"
@@ -49,7 +50,8 @@ namespace {
 /// max_rays_per_scan (30000), phantom_miss_scans (1; 0 = off), phantom_miss_block_px (0 = width/640,
 /// at least 1), phantom_miss_margin_deg (15), predicted_gain (true; false = the paper's selection
 /// alone), gain_field_views (10), gain_sphere_views (128), gain_rays (64 across the image),
-/// gain_min (1: the least gain, in iso-points of need, of a view taken).
+/// gain_min (1: the least gain, in iso-points of need, of a view taken), gain_seen_discount (0.5:
+/// the need's factor per earlier scan that would have measured the iso-point; 1 = off).
 struct PoissonPlannerParams {
   bool phantom_suppression = true;
   int phantom_grid_resolution = 128;
@@ -63,6 +65,7 @@ struct PoissonPlannerParams {
   int gain_sphere_views = 128;
   int gain_rays = 64;
   double gain_min = 1.0;
+  double gain_seen_discount = 0.5;
   template <class V>
   void visit_fields(V& v) {
     v("phantom_suppression", phantom_suppression);
@@ -77,6 +80,7 @@ struct PoissonPlannerParams {
     v("gain_sphere_views", gain_sphere_views, schema::closed(0, 100000));
     v("gain_rays", gain_rays, schema::closed(1, 4096));
     v("gain_min", gain_min, schema::at_least(0));
+    v("gain_seen_discount", gain_seen_discount, schema::closed(0, 1));
   }
 };
 
@@ -240,7 +244,15 @@ class PoissonPlanner final : public Planner {
       std::vector<Pose> poses;
       for (const auto& c : cands) poses.push_back(c.pose);
       const ViewGain gain(state.mesh, state.iso_points.positions, state.scanner, gain_.gain_rays);
-      const auto picks = pick_by_gain(gain.seen(poses), need, options_.nbv.max_views, gain_.gain_min);
+      // Diminishing returns across rounds: what the earlier scans would have measured of this model
+      // and is still uncertain, a view is less likely to improve (a contact face, a cavity floor
+      // out of the scanner's reach); its need halves per earlier scan. Stateless: the scans' poses
+      // are the model state's, so a resumed session plans as the uninterrupted one.
+      std::vector<double> discounted = need;
+      if (gain_.gain_seen_discount < 1.0)
+        for (const auto& s : gain.seen(std::span<const Pose>(state.scan_poses)))
+          for (const auto i : s) discounted[i] *= gain_.gain_seen_discount;
+      const auto picks = pick_by_gain(gain.seen(poses), discounted, options_.nbv.max_views, gain_.gain_min);
       std::vector<PlannedView> views;
       for (const auto& pick : picks) {
         PlannedView v = cands[pick.candidate];

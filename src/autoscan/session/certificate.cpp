@@ -118,6 +118,9 @@ json to_json(const Certificate& c) {
           {"views_planned", c.views_planned},
           {"done", c.done},
           {"expected_accuracy", c.expected_accuracy},
+          {"scanner_accuracy", c.scanner_accuracy},
+          {"fit_residual", c.fit_residual},
+          {"tolerated_share", c.tolerated_share},
           {"regions", regions}};
 }
 
@@ -139,6 +142,10 @@ Certificate certificate_from_json(const json& j, const std::string& what) {
   AUTOSCAN_REQUIRE(j.contains("done") && j.at("done").is_boolean(), "{}.done: expected true or false", what);
   c.done = j.at("done").get<bool>();
   c.expected_accuracy = number(j, "expected_accuracy", what);
+  // Since issue 45 (older sessions: the scanner's σ was the whole figure, nothing tolerated stated).
+  c.scanner_accuracy = j.contains("scanner_accuracy") ? number(j, "scanner_accuracy", what) : c.expected_accuracy;
+  c.fit_residual = j.contains("fit_residual") ? number(j, "fit_residual", what) : 0.0;
+  c.tolerated_share = j.contains("tolerated_share") ? number(j, "tolerated_share", what) : 0.0;
   AUTOSCAN_REQUIRE(j.contains("regions") && j.at("regions").is_array(), "{}.regions: expected an array", what);
   for (std::size_t i = 0; i < j.at("regions").size(); ++i) {
     const json& e = j.at("regions")[i];
@@ -333,6 +340,40 @@ std::vector<char> regions_on_support(const std::vector<std::vector<int>>& region
   return on;
 }
 
+// Point-to-mesh residuals of (at most kSample of) the consolidated points: the distance to the
+// tangent plane of the nearest mesh vertex; `vertex_of` gets each sampled point's vertex.
+struct FitResiduals {
+  std::vector<double> residual;
+  std::vector<std::size_t> vertex_of;
+};
+FitResiduals fit_residuals(const TriangleMesh& mesh, const PointCloud& consolidated) {
+  constexpr std::size_t kSample = 20000;
+  FitResiduals out;
+  if (consolidated.empty() || mesh.vertices.empty()) return out;
+  const spatial::KdTree tree(std::span<const Vec3>(mesh.vertices));
+  const std::vector<Vec3> normals = vertex_normals_of(mesh);
+  const std::size_t stride = std::max<std::size_t>(1, consolidated.size() / kSample);
+  for (std::size_t i = 0; i < consolidated.size(); i += stride) {
+    const Vec3& p = consolidated.positions[i];
+    const std::size_t v = tree.nearest(p);
+    const Vec3 n = normals[v].norm() > 0 ? Vec3(normals[v].normalized()) : Vec3::Zero();
+    out.residual.push_back(n.isZero() ? (p - mesh.vertices[v]).norm() : std::abs(n.dot(p - mesh.vertices[v])));
+    out.vertex_of.push_back(v);
+  }
+  return out;
+}
+
+// RMS of the values at or below their 95th percentile (the rest: outliers, points the surface does
+// not pass through); 0 for none.
+double trimmed_rms(std::vector<double> r) {
+  if (r.empty()) return 0.0;
+  std::sort(r.begin(), r.end());
+  const std::size_t keep = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(0.95 * double(r.size()))));
+  double s = 0.0;
+  for (std::size_t i = 0; i < keep; ++i) s += r[i] * r[i];
+  return std::sqrt(s / double(keep));
+}
+
 // The components large enough to be regions (the others add to c.share_scattered), with their
 // extent and data presence; `region_vertices` gets each region's sorted vertex ids.
 std::vector<CertificateRegion> measure_regions(std::vector<LowComponent>& acc, const TriangleMesh& mesh,
@@ -455,8 +496,10 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   c.iteration = iteration;
   // The scanner's expected accuracy: its noise model's σ at the optimal distance d_o (§5.1), normal
   // incidence.
-  c.expected_accuracy = scanner.noise.magnitude * scanner.noise.depth_sigma *
-                        scanner.relative_depth_sigma(scanner.optimal_distance(), 1.0);
+  c.scanner_accuracy = scanner.noise.magnitude * scanner.noise.depth_sigma *
+                       scanner.relative_depth_sigma(scanner.optimal_distance(), 1.0);
+  c.expected_accuracy = c.scanner_accuracy;
+  c.tolerated_share = options.remaining_share;
   if (mesh.faces.empty() || mesh.vertices.empty()) {
     c.threshold = options.confidence;
     return c;
@@ -468,9 +511,26 @@ Certificate compute_certificate(int iteration, const TriangleMesh& mesh, const P
   std::vector<LowComponent> acc = low_components(mesh, f, on_support, c, low_area);
   if (c.surface_area <= 0.0) return c;
   c.share_confident = 1.0 - low_area / c.surface_area;
+  // The model's expected accuracy: the scanner's σ and how far the points lie from the surface.
+  const FitResiduals fit = fit_residuals(mesh, consolidated);
+  c.fit_residual = fit.residual.empty() ? c.edge_length / std::sqrt(12.0) : trimmed_rms(fit.residual);
+  c.expected_accuracy = std::hypot(c.scanner_accuracy, c.fit_residual);
   const DataPresence data = data_presence(consolidated, c.edge_length);
   std::vector<std::vector<int>> region_vertices;
   std::vector<CertificateRegion> regions = measure_regions(acc, mesh, data, options, c, region_vertices);
+  // A region with data: the residual of the points whose nearest vertex is one of its own.
+  if (!fit.residual.empty()) {
+    std::vector<int> region_of(mesh.vertices.size(), -1);
+    for (std::size_t r = 0; r < region_vertices.size(); ++r)
+      for (int v : region_vertices[r]) region_of[static_cast<std::size_t>(v)] = static_cast<int>(r);
+    std::vector<std::vector<double>> per(regions.size());
+    for (std::size_t k = 0; k < fit.residual.size(); ++k)
+      if (const int r = region_of[fit.vertex_of[k]]; r >= 0)
+        per[static_cast<std::size_t>(r)].push_back(fit.residual[k]);
+    for (std::size_t r = 0; r < regions.size(); ++r)
+      if (regions[r].has_data && per[r].size() >= 10)
+        regions[r].expected_accuracy = std::hypot(c.scanner_accuracy, trimmed_rms(std::move(per[r])));
+  }
   track_regions(regions, regions_on_support(region_vertices, on_support), previous, options, c);
   add_regions_by_area(regions, region_vertices, mesh, c);
   c.done = c.share_improvable < options.remaining_share;
@@ -494,14 +554,17 @@ std::string describe(const Certificate& c, std::size_t max_regions) {
   std::string out =
       fmt::format("quality certificate (iteration {}): {:.1f} % of the surface has confidence >= {:.3f}; {}\n",
                   c.iteration, 100.0 * c.share_confident, c.threshold,
-                  c.done ? fmt::format("DONE{}: what views can still improve is {:.2f} % of the surface",
-                                       done_caveat(c), 100.0 * c.share_improvable)
+                  c.done ? fmt::format("DONE{}: what views can still improve is {:.2f} % of the surface, under the "
+                                       "{:.2f} % tolerated (stop.remaining_share: regions that small cost more "
+                                       "views than the surface they add)",
+                                       done_caveat(c), 100.0 * c.share_improvable, 100.0 * c.tolerated_share)
                          : fmt::format("NOT DONE: {:.2f} % of the surface can still be improved by views",
                                        100.0 * c.share_improvable));
   out += fmt::format(
-      "  left: {:.2f} % unreachable, {:.2f} % too noisy, {:.2f} % scattered specks; scanner's expected accuracy "
-      "{:.3g}\n",
-      100.0 * c.share_unreachable, 100.0 * c.share_too_noisy, 100.0 * c.share_scattered, c.expected_accuracy);
+      "  left: {:.2f} % unreachable, {:.2f} % too noisy, {:.2f} % scattered specks; the model's expected accuracy "
+      "{:.3g} (scanner {:.3g}, points to surface {:.3g})\n",
+      100.0 * c.share_unreachable, 100.0 * c.share_too_noisy, 100.0 * c.share_scattered, c.expected_accuracy,
+      c.scanner_accuracy, c.fit_residual);
   for (std::size_t i = 0; i < c.regions.size() && i < max_regions; ++i) {
     const auto& r = c.regions[i];
     out += fmt::format(

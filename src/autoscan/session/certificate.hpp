@@ -50,8 +50,8 @@ struct CertificateRegion {
   /// StopOptions::stalled_rounds on it is settled like a stalled one.
   int ignored = 0;
   int previous = -1;  ///< the matched region of the previous iteration's certificate (-1: new)
-  /// The scanner's expected depth accuracy there: its noise model's σ at the optimal distance and
-  /// normal incidence (ScannerSpec::noise; 0 for a noise-free scanner).
+  /// The model's expected accuracy there (Certificate::expected_accuracy, with the residual of the
+  /// points near its vertices when it has data).
   double expected_accuracy = 0.0;
 };
 
@@ -69,8 +69,18 @@ struct Certificate {
   int views_planned = 0;           ///< views of this iteration's plan (count_views_aimed)
   /// Rounds in a row, ending with this one, whose views looked at regions and improved none.
   int stalled_rounds = 0;
-  bool done = false;                       ///< share_improvable below StopOptions::remaining_share
-  double expected_accuracy = 0.0;          ///< the scanner's σ at the optimal distance, normal incidence
+  bool done = false;  ///< share_improvable below StopOptions::remaining_share
+  /// StopOptions::remaining_share: the improvable share DONE tolerates (regions that small cost more
+  /// views than the surface they add; docs/stop-rule.md).
+  double tolerated_share = 0.0;
+  /// The model's expected accuracy, a distance: sqrt(scanner_accuracy² + fit_residual²), never 0 for
+  /// a mesh with faces.
+  double expected_accuracy = 0.0;
+  double scanner_accuracy = 0.0;  ///< the scanner's σ at the optimal distance, normal incidence (0: noise-free)
+  /// The RMS distance of the consolidated points to the mesh (point to the tangent plane of the
+  /// nearest vertex; the largest 5 % left out as outliers); without points, the mesh's quantisation
+  /// (mean edge / √12, a uniform error over one edge).
+  double fit_residual = 0.0;
   std::vector<CertificateRegion> regions;  ///< largest first
 
   // Not persisted: the low-confidence vertices of the tracked regions and their region index, for
