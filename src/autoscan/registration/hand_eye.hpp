@@ -1,0 +1,45 @@
+#pragma once
+// The robot's hand-eye offset estimated from the registration (issue 45; docs/registration.md,
+// "Hand-eye offset"). A robot reports where it put the scanner, C_i (world_from_camera, as
+// commanded); the registration finds where the scan belongs in the model's frame, R_i. With a
+// hand-eye calibration error H (flange to scanner, the same in every scan; simulation:
+// noise.hand_eye_*) and the model's frame W against the robot's (the first scan's, unknown),
+// R_i = W C_i H, so for every pair of scans the robot's motion A = C_i⁻¹ C_j and the registration's
+// B = R_i⁻¹ R_j satisfy A H = H B: the classic AX = XB of hand-eye calibration, solved in closed
+// form as Park & Martin (IEEE T-RA 1994): the rotation maps the rotation vectors of B onto those of
+// A (Kabsch over all pairs), then the translation solves (R_A − I) t = R_H t_B − t_A in least
+// squares. Needs motions about at least two axes (a ring at one height rotates about one: its
+// translation along that axis is unobservable and the estimate says so through its error).
+// Uncertainty: the least-squares covariance from the pairs' residuals, scaled by pairs / (scans − 1)
+// since the pairs of n scans hold n − 1 independent motions.
+#include <Eigen/Geometry>
+#include <nlohmann/json_fwd.hpp>
+#include <span>
+
+#include "autoscan/core/types.hpp"
+
+namespace autoscan::registration {
+
+struct HandEyeEstimate {
+  int scans = 0;                                             ///< samples used
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();  ///< H, camera frame
+  Vec3 translation = Vec3::Zero();                           ///< H's translation (scene units)
+  Vec3 rotation_deg = Vec3::Zero();                          ///< H's rotation vector, degrees
+  double translation_se = 0.0;         ///< standard error of the translation (a length, the worst direction)
+  double rotation_se_deg = 0.0;        ///< standard error of the rotation (degrees, the worst axis)
+  double residual_translation = 0.0;   ///< RMS of the pairs' translation residuals (scene units)
+  double residual_rotation_deg = 0.0;  ///< RMS of the pairs' rotation residuals (degrees)
+  /// The estimate stands out of its noise: |t| > 3 translation_se or |θ| > 3 rotation_se_deg, with
+  /// at least 4 scans and both observable. A session applies nothing that is not significant.
+  bool significant = false;
+  bool observable = false;  ///< the motions turn about at least two axes
+};
+
+/// H from the scans' commanded C_i and registered R_i, both world_from_camera (R_i's frame may be
+/// any fixed W against C_i's). Throws InputError for spans of different sizes or fewer than 2 scans.
+HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
+                                  std::span<const Eigen::Isometry3d> registered);
+
+nlohmann::json to_json(const HandEyeEstimate& e);
+
+}  // namespace autoscan::registration
