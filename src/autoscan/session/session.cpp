@@ -22,6 +22,7 @@
 #include "autoscan/core/session_layout.hpp"
 #include "autoscan/core/timer.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/registration/hand_eye.hpp"
 #include "autoscan/session/quality.hpp"
 #include "autoscan/spatial/kdtree.hpp"
 
@@ -341,25 +342,27 @@ json to_json(const ScanRecord& r) {
 json to_json(const IterationRecord& r) {
   json secs = json::object();
   for (const auto& [k, v] : r.seconds) secs[k] = v;
-  return {{"index", r.index},
-          {"scans", r.scans},
-          {"points", r.raw_points},
-          {"consolidated_points", r.consolidated_points},
-          {"mesh_vertices", r.mesh_vertices},
-          {"iso_points", r.iso_points},
-          {"views", r.views},
-          {"mean_f", r.mean_f},
-          {"mean_f_g", r.mean_f_g},
-          {"mean_f_s", r.mean_f_s},
-          {"delta_mean_f", r.delta_mean_f},
-          {"path_length", r.path_length},
-          {"seconds", secs},
-          {"planner", r.planner_diagnostics},
-          {"registration", r.registration},
-          {"truth", r.truth},
-          {"certificate", r.certificate},
-          {"stopped", r.stopped},
-          {"stop_reason", r.stop_reason.empty() ? json(nullptr) : json(r.stop_reason)}};
+  json j = {{"index", r.index},
+            {"scans", r.scans},
+            {"points", r.raw_points},
+            {"consolidated_points", r.consolidated_points},
+            {"mesh_vertices", r.mesh_vertices},
+            {"iso_points", r.iso_points},
+            {"views", r.views},
+            {"mean_f", r.mean_f},
+            {"mean_f_g", r.mean_f_g},
+            {"mean_f_s", r.mean_f_s},
+            {"delta_mean_f", r.delta_mean_f},
+            {"path_length", r.path_length},
+            {"seconds", secs},
+            {"planner", r.planner_diagnostics},
+            {"registration", r.registration},
+            {"truth", r.truth},
+            {"certificate", r.certificate},
+            {"stopped", r.stopped},
+            {"stop_reason", r.stop_reason.empty() ? json(nullptr) : json(r.stop_reason)}};
+  if (!r.hand_eye.is_null()) j["hand_eye"] = r.hand_eye;  // absent before issue 45
+  return j;
 }
 
 json to_json(const SessionStatus& s) {
@@ -378,6 +381,7 @@ json to_json(const SessionStatus& s) {
           {"last_mean_f", s.last_mean_f ? json(*s.last_mean_f) : json(nullptr)},
           {"best_iteration", s.best_iteration},
           {"certificate", s.certificate},
+          {"hand_eye", s.hand_eye},
           {"current_pose", pose_or_null(s.current_pose)}};
 }
 
@@ -489,6 +493,7 @@ IterationRecord iteration_from_json(const json& j, const std::string& what, int 
     certificate_from_json(j.at("certificate"), what + ".certificate");  // validated; kept as written
     r.certificate = j.at("certificate");
   }
+  if (j.contains("hand_eye")) r.hand_eye = object_or_null(j.at("hand_eye"), what + ".hand_eye");
   r.stopped = boolean(member(j, "stopped", what), what + ".stopped");
   r.stop_reason = string_or_null(member(j, "stop_reason", what), what + ".stop_reason");
   return r;
@@ -1007,6 +1012,26 @@ struct Session::Impl {
     return std::nullopt;
   }
 
+  // The robot's hand-eye offset from the scans kept, reported against registered
+  // (registration/hand_eye.hpp); null with fewer than 2.
+  json hand_eye_estimate() const {
+    std::vector<Eigen::Isometry3d> commanded, registered;
+    for (const auto& s : scans)
+      if (!s.excluded) {
+        commanded.push_back(s.reported_pose.world_from_camera());
+        registered.push_back(s.registered_pose.world_from_camera());
+      }
+    if (commanded.size() < 2) return nullptr;
+    const auto e = registration::estimate_hand_eye(commanded, registered);
+    if (e.significant)
+      log::info(
+          "hand-eye offset: ({:.4g}, {:.4g}, {:.4g}) ± {:.2g}, rotation ({:.3g}, {:.3g}, {:.3g}) deg ± {:.2g} "
+          "from {} scans",
+          e.translation.x(), e.translation.y(), e.translation.z(), e.translation_se, e.rotation_deg.x(),
+          e.rotation_deg.y(), e.rotation_deg.z(), e.rotation_se_deg, e.scans);
+    return registration::to_json(e);
+  }
+
   // The quality certificate (docs/stop-rule.md), tracked from the previous iteration's.
   Certificate certify(const Reconstruction& rec, IterationRecord& it) const {
     Stopwatch cclock;
@@ -1446,6 +1471,7 @@ NextViews Session::next_views(const Pose& current) {
   IterationRecord it = m.start_iteration(k);
   m.global_registration(it);
   AUTOSCAN_REQUIRE(!m.model.empty(), "next_views: every scan was kept out of the model (see session status)");
+  it.hand_eye = m.hand_eye_estimate();
 
   auto rec = std::make_shared<Reconstruction>(m.reconstructor(m.model, m.options, m.progress));
   m.record_reconstruction(*rec, it);
@@ -1538,6 +1564,7 @@ SessionStatus Session::status() const {
   if (!m.iterations.empty()) s.last_mean_f = m.iterations.back().mean_f;
   s.best_iteration = m.best_iteration;
   if (!m.iterations.empty()) s.certificate = m.iterations.back().certificate;
+  if (!m.iterations.empty()) s.hand_eye = m.iterations.back().hand_eye;
   s.current_pose = m.current_pose;
   s.pending_scans = static_cast<int>(m.scans.size()) - m.pending_from();
   s.excluded_scans =

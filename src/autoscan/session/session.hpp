@@ -97,6 +97,10 @@ struct IterationRecord {
   /// The quality certificate of this iteration's model (to_json(Certificate)); null in sessions
   /// written before it (docs/stop-rule.md).
   nlohmann::json certificate;
+  /// The robot's hand-eye offset estimated from every scan kept in the model, reported against
+  /// registered (registration::to_json(HandEyeEstimate), docs/registration.md); null with fewer
+  /// than 2 scans and in sessions written before it.
+  nlohmann::json hand_eye;
   bool stopped = false;
   /// "", "complete", "no_improvement", "quality_fell" (the rule "remaining"), "converged",
   /// "confidence_fell" (the paper's rule), "quality_fell_truth" (a driver that knows the truth, see
@@ -136,6 +140,8 @@ struct SessionStatus {
   int refused_views = 0;   ///< poses the robot could not take (Session::refuse_view)
   /// The last iteration's global registration in brief: pairs used and dropped, seconds.
   nlohmann::json registration;
+  /// The last iteration's hand-eye estimate (IterationRecord::hand_eye), null when none.
+  nlohmann::json hand_eye;
 };
 nlohmann::json to_json(const SessionStatus& s);
 nlohmann::json to_json(const IterationRecord& r);
