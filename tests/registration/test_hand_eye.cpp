@@ -88,6 +88,8 @@ TEST(HandEye, ARandomErrorAloneIsNotSignificantAndTheSpreadIsItsStandardError) {
   EXPECT_LT(e.translation_se, 0.002);
   EXPECT_LT(e.rotation_se_deg, 0.15);
   EXPECT_LT(std::abs(e.rotation_deg.z() - 1.5), 3.0 * e.rotation_se_deg);
+  // Exact poses: nothing, and not significant (the errors are 0 too).
+  EXPECT_FALSE(estimate_hand_eye(commanded, commanded).significant);
   const auto z = estimate_hand_eye(commanded, without);
   EXPECT_FALSE(z.significant) << z.translation.transpose() << " ± " << z.translation_se;
   EXPECT_THROW(estimate_hand_eye(commanded, std::span<const Eigen::Isometry3d>(with).first(3)), InputError);

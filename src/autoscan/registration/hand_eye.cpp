@@ -95,8 +95,10 @@ HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
     e.rotation_se_deg = std::sqrt(sr / dof / lr * scale) * kRadToDeg;
     e.translation_se = std::sqrt(st / dof / lt * scale);
   }
-  e.significant =
-      e.observable && n >= 4 && (t.norm() > 3.0 * e.translation_se || e.rotation_deg.norm() > 3.0 * e.rotation_se_deg);
+  // (floors: with exact poses the residuals, and so the errors, are 0; a round-off offset is not one)
+  e.significant = e.observable && n >= 4 &&
+                  (t.norm() > std::max(3.0 * e.translation_se, 1e-9) ||
+                   e.rotation_deg.norm() > std::max(3.0 * e.rotation_se_deg, 1e-6));
   return e;
 }
 

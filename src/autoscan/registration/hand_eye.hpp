@@ -29,8 +29,8 @@ struct HandEyeEstimate {
   double rotation_se_deg = 0.0;        ///< standard error of the rotation (degrees, the worst axis)
   double residual_translation = 0.0;   ///< RMS of the pairs' translation residuals (scene units)
   double residual_rotation_deg = 0.0;  ///< RMS of the pairs' rotation residuals (degrees)
-  /// The estimate stands out of its noise: |t| > 3 translation_se or |θ| > 3 rotation_se_deg, with
-  /// at least 4 scans and both observable. A session applies nothing that is not significant.
+  /// The estimate stands out of its noise: |t| > 3 translation_se (and 1e-9) or |θ| > 3
+  /// rotation_se_deg (and 1e-6 degrees), with at least 4 scans and both observable.
   bool significant = false;
   bool observable = false;  ///< the motions turn about at least two axes
 };
