@@ -469,3 +469,21 @@ TEST(Multiway, BridgesJoinTheGroupsThatMinOverlapLeavesApart) {
   o.bridge_min_overlap = 0.3;  // above min_overlap
   EXPECT_THROW(o.validate(), InputError);
 }
+
+// A prior centred on a correction (the part a hand-eye offset explains) pulls its node there, and
+// its chi² is 0 at the centre.
+TEST(PoseGraph, APriorCentredOnACorrectionPullsTheNodeThere) {
+  Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
+  P.linear() = Eigen::AngleAxisd(0.02, Vec3(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  P.translation() = Vec3(0.004, -0.001, 0.002);
+  const std::vector<Eigen::Isometry3d> initial = {Eigen::Isometry3d::Identity()};
+  const std::vector<char> fixed = {0};
+  std::vector<PoseGraphPrior> priors = {{0, Vec3(0.5, 0.2, 0.1), 0.003, 0.01, P}};
+  const auto r = solve_pose_graph(initial, fixed, {}, priors, {});
+  EXPECT_LT((r.poses[0].matrix() - P.matrix()).norm(), 1e-8);
+  ASSERT_EQ(r.prior_chi2.size(), 1u);
+  EXPECT_LT(r.prior_chi2[0], 1e-12);
+  priors[0].center = Eigen::Isometry3d::Identity();  // the reported pose: back to the identity
+  const auto r0 = solve_pose_graph(std::vector<Eigen::Isometry3d>{P}, fixed, {}, priors, {});
+  EXPECT_LT((r0.poses[0].matrix() - Eigen::Matrix4d::Identity()).norm(), 1e-8);
+}

@@ -527,6 +527,11 @@ class MultiwayRun {
         flag_reason_(n_) {}
 
   void prepare(std::vector<std::shared_ptr<const PreparedScan>>* cache);
+  // The priors' centres (world frame, one per scan; empty: the reported poses), into the centred frame.
+  void set_prior_centers(std::span<const Eigen::Isometry3d> centers) {
+    prior_center_.assign(n_, Eigen::Isometry3d::Identity());
+    for (std::size_t i = 0; i < n_ && i < centers.size(); ++i) prior_center_[i] = to_centred(centers[i], c_);
+  }
   void select_pairs();
   void cap_pairs();
   void report_scans();
@@ -569,6 +574,7 @@ class MultiwayRun {
   std::vector<std::size_t> cand_;
   std::vector<Prepared> prep_;
   std::vector<Eigen::Isometry3d> X_;
+  std::vector<Eigen::Isometry3d> prior_center_;  ///< centred frame; empty: identity
   std::set<PairKey> pair_set_;
   std::map<PairKey, double> overlap_of_;
   std::vector<PairKey> pairs_;
@@ -734,7 +740,9 @@ std::vector<Eigen::Isometry3d> MultiwayRun::solve_with_rejection(std::vector<cha
           if (free_[v] && !flagged_[v]) fixed[v] = 0;
       }
     for (std::size_t i = 0; i < n_; ++i)
-      if (!fixed[i]) priors.push_back({static_cast<int>(i), prep_[i].sensor, o_.robot_translation_sigma, sigma_r_});
+      if (!fixed[i])
+        priors.push_back({static_cast<int>(i), prep_[i].sensor, o_.robot_translation_sigma, sigma_r_,
+                          prior_center_.empty() ? Eigen::Isometry3d::Identity() : prior_center_[i]});
     PoseGraphOptions go;
     go.robust_scale = o_.robust_scale;
     const PoseGraphResult g = solve_pose_graph(X_, fixed, edges, priors, go);
@@ -867,7 +875,8 @@ void MultiwayRun::finish() {
 MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
                                  std::span<const Eigen::Isometry3d> initial, std::span<const char> free_in,
                                  const MultiwayOptions& o, ProgressCallback progress,
-                                 std::vector<std::shared_ptr<const PreparedScan>>* cache) {
+                                 std::vector<std::shared_ptr<const PreparedScan>>* cache,
+                                 std::span<const Eigen::Isometry3d> prior_centers) {
   Stopwatch clock;
   o.validate();
   check_inputs(scans, sensors, initial, free_in, cache);
@@ -887,6 +896,11 @@ MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<co
     return res;
   }
   MultiwayRun run(scans, sensors, o, *c, std::move(free), res);
+  if (!prior_centers.empty()) {
+    AUTOSCAN_REQUIRE(prior_centers.size() == n, "register_multiway: {} prior centres for {} scans",
+                     prior_centers.size(), n);
+    run.set_prior_centers(prior_centers);
+  }
   Stopwatch step;
   run.prepare(cache);
   res.seconds_prepare = step.seconds();

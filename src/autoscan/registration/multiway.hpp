@@ -247,10 +247,14 @@ struct PreparedScan {
 /// @param cache  optional, #N entries: a null entry is filled with the scan's preparation, a non-null
 ///               one is used as is (the caller clears an entry when its scan changes; the options
 ///               must be the same as when it was filled)
+/// @param prior_centers  optional, #N world-frame corrections the robot's priors are centred on (the
+///               part of each correction an estimated hand-eye offset explains, C_i Ĥ C_i⁻¹); empty:
+///               the identity, the reported poses
 MultiwayResult register_multiway(std::span<const PointCloud> scans, std::span<const Vec3> sensors,
                                  std::span<const Eigen::Isometry3d> initial, std::span<const char> free,
                                  const MultiwayOptions& options = {}, ProgressCallback progress = {},
-                                 std::vector<std::shared_ptr<const PreparedScan>>* cache = nullptr);
+                                 std::vector<std::shared_ptr<const PreparedScan>>* cache = nullptr,
+                                 std::span<const Eigen::Isometry3d> prior_centers = {});
 
 nlohmann::json to_json(const MultiwayResult& r);
 

@@ -92,16 +92,20 @@ struct EdgeCost {
   }
 };
 
-// Prior: Log(S⁻¹ X S) scaled by 1/σ.
+// Prior: Log(S⁻¹ C⁻¹ X S) scaled by 1/σ (C the prior's centre).
 struct PriorCost {
   Vec3 pivot;
   double inv_sigma_r = 1.0, inv_sigma_t = 1.0;
+  Eigen::Isometry3d center_inv = Eigen::Isometry3d::Identity();
   template <class T>
   bool operator()(const T* x, T* residual) const {
     Rigid<T> S;
     S.R.setIdentity();
     S.t = pivot.cast<T>();
-    const Rigid<T> D = S.inverse() * Rigid<T>::from(x) * S;
+    Rigid<T> Ci;
+    Ci.R = center_inv.linear().cast<T>();
+    Ci.t = center_inv.translation().cast<T>();
+    const Rigid<T> D = S.inverse() * (Ci * Rigid<T>::from(x)) * S;
     T e[6];
     D.log(e);
     for (int k = 0; k < 3; ++k) {
@@ -173,7 +177,7 @@ PoseGraphResult solve_pose_graph(std::span<const Eigen::Isometry3d> initial, std
   }
   for (const auto& p : priors) {
     auto* cost = new ceres::AutoDiffCostFunction<PriorCost, 6, 6>(
-        new PriorCost{p.pivot, 1.0 / p.sigma_rotation_rad, 1.0 / p.sigma_translation});
+        new PriorCost{p.pivot, 1.0 / p.sigma_rotation_rad, 1.0 / p.sigma_translation, p.center.inverse()});
     problem.AddResidualBlock(cost, nullptr, params[static_cast<std::size_t>(p.node)].data());
     used[static_cast<std::size_t>(p.node)] = 1;
   }
@@ -212,7 +216,7 @@ PoseGraphResult solve_pose_graph(std::span<const Eigen::Isometry3d> initial, std
   }
   for (const auto& p : priors) {
     const Eigen::Isometry3d S(Eigen::Translation3d(p.pivot));
-    const auto d = to_params(S.inverse() * res.poses[static_cast<std::size_t>(p.node)] * S);
+    const auto d = to_params(S.inverse() * p.center.inverse() * res.poses[static_cast<std::size_t>(p.node)] * S);
     double c = 0.0;
     for (int k = 0; k < 3; ++k) {
       c += std::pow(d[static_cast<std::size_t>(k)] / p.sigma_rotation_rad, 2);

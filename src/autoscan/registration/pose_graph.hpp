@@ -35,6 +35,10 @@ struct PoseGraphPrior {
   Vec3 pivot = Vec3::Zero();        ///< centre of the prior's rotation (the sensor position)
   double sigma_translation = 0.0;   ///< world units, > 0
   double sigma_rotation_rad = 0.0;  ///< radians, > 0
+  /// The prior's mean: X_i ≈ center (identity: the pose the robot reported; a correction the
+  /// robot's estimated hand-eye offset explains, registration/hand_eye.hpp). The error is then
+  /// Log(S_i⁻¹ center⁻¹ X_i S_i).
+  Eigen::Isometry3d center = Eigen::Isometry3d::Identity();
 };
 
 struct PoseGraphOptions {

@@ -148,6 +148,10 @@ struct SessionOptions {
   /// (the robot's accuracy: multiway.robot_translation_sigma, robot_rotation_sigma_deg). Blind scans
   /// are thus aligned before the first model. Needs register_scans.
   bool global_registration = true;
+  /// The global registration's robot priors centred on the reported poses with the estimated
+  /// hand-eye offset applied (C_i Ĥ, Ĥ the last iteration's significant estimate,
+  /// IterationRecord::hand_eye; docs/registration.md "Hand-eye offset"). false: on the reported poses.
+  bool hand_eye_priors = false;
   registration::MultiwayOptions multiway;  ///< the robot's accuracy, overlap, rounds, outlier rule
   /// §5.3 registration acceptance. ICP's correction is applied only when it lowers the residual RMS by
   /// at least this share: on noisy data a correction that does not fit better is the scan sliding
@@ -214,6 +218,7 @@ struct SessionOptions {
     v("icp", icp);
     v("register_scans", register_scans);
     v("global_registration", global_registration);
+    v("hand_eye_priors", hand_eye_priors);
     v("multiway", multiway);
     v("registration_min_improvement", registration_min_improvement, schema::closed_open(0, 1));
     v("registration_max_translation", registration_max_translation, schema::at_least(0));

@@ -844,8 +844,9 @@ struct Session::Impl {
       free[static_cast<std::size_t>(i)] = i >= first && !r.excluded ? 1 : 0;
     }
     reg_prepared.resize(reg_samples.size());
+    const std::vector<Eigen::Isometry3d> centers = hand_eye_prior_centers();
     const auto res = registration::register_multiway(reg_samples, sensors, initial, free, multiway_options(), progress,
-                                                     &reg_prepared);
+                                                     &reg_prepared, centers);
     int moved = 0, excluded = 0;
     std::vector<char> moved_flags(scans.size(), 0);
     for (int i = 0; i < n; ++i) {
@@ -1010,6 +1011,28 @@ struct Session::Impl {
       return SupportContact{SupportPlane{Vec3::UnitZ(), *h}, options.supports.contact_tolerance};
     if (const auto pl = known_support_plane()) return SupportContact{*pl, options.supports.contact_tolerance};
     return std::nullopt;
+  }
+
+  // With options.hand_eye_priors and a significant estimate at the last iteration: per scan, the
+  // world-frame correction the offset explains, C_i Ĥ C_i⁻¹ (the priors' centres); else none.
+  std::vector<Eigen::Isometry3d> hand_eye_prior_centers() const {
+    if (!options.hand_eye_priors || iterations.empty()) return {};
+    const json& he = iterations.back().hand_eye;
+    if (!he.is_object() || !he.value("significant", false)) return {};
+    const auto t = he.at("translation"), r = he.at("rotation_deg");
+    const Vec3 tv(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
+    const Vec3 rv(r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
+    Eigen::Isometry3d H = Eigen::Isometry3d::Identity();
+    if (rv.norm() > 0)
+      H.linear() = Eigen::AngleAxisd(rv.norm() * std::numbers::pi / 180.0, rv.normalized()).toRotationMatrix();
+    H.translation() = tv;
+    std::vector<Eigen::Isometry3d> out;
+    out.reserve(scans.size());
+    for (const auto& s : scans) {
+      const Eigen::Isometry3d C = s.reported_pose.world_from_camera();
+      out.push_back(C * H * C.inverse());
+    }
+    return out;
   }
 
   // The robot's hand-eye offset from the scans kept, reported against registered
