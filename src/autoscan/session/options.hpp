@@ -150,7 +150,8 @@ struct SessionOptions {
   bool global_registration = true;
   /// The global registration's robot priors centred on the reported poses with the estimated
   /// hand-eye offset applied (C_i Ĥ, Ĥ the last iteration's significant estimate,
-  /// IterationRecord::hand_eye; docs/registration.md "Hand-eye offset"). false: on the reported poses.
+  /// IterationRecord::hand_eye; docs/registration.md "Hand-eye offset"), and each new scan's ICP
+  /// started there. false: on the reported poses.
   bool hand_eye_priors = false;
   registration::MultiwayOptions multiway;  ///< the robot's accuracy, overlap, rounds, outlier rule
   /// §5.3 registration acceptance. ICP's correction is applied only when it lowers the residual RMS by

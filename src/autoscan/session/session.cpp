@@ -925,6 +925,14 @@ struct Session::Impl {
   // Registers (when a model exists) and selects the points of a scan; returns the registered scan.
   PointCloud register_and_select(PointCloud& scan, ScanRecord& rec, std::vector<char>& keep) {
     Stopwatch clock;
+    // With options.hand_eye_priors and a significant estimate: the scan starts where the estimated
+    // hand-eye offset puts it (C Ĥ C⁻¹); ICP's correction and its bounds are on top of that.
+    Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
+    if (const auto h = hand_eye_offset()) {
+      const Eigen::Isometry3d C = rec.reported_pose.world_from_camera();
+      start = C * *h * C.inverse();
+      apply_transform(scan, start);
+    }
     if (options.register_scans && has_model() && !scan.empty()) {
       const auto r = registration::icp(scan, target, target_weight, options.icp);
       rec.registration = r;
@@ -945,6 +953,10 @@ struct Session::Impl {
             rec.id, r.correction_translation, r.correction_rotation_deg);
       else
         rec.correction = r.correction;
+    }
+    if (!start.isApprox(Eigen::Isometry3d::Identity(), 0.0)) {
+      apply_transform(scan, start.inverse());  // the caller's scan as it came
+      rec.correction = rec.correction * start;
     }
     rec.seconds_registration = clock.seconds();
     rec.registered_pose = rec.reported_pose.transformed(rec.correction);
@@ -1015,10 +1027,10 @@ struct Session::Impl {
 
   // With options.hand_eye_priors and a significant estimate at the last iteration: per scan, the
   // world-frame correction the offset explains, C_i Ĥ C_i⁻¹ (the priors' centres); else none.
-  std::vector<Eigen::Isometry3d> hand_eye_prior_centers() const {
-    if (!options.hand_eye_priors || iterations.empty()) return {};
+  std::optional<Eigen::Isometry3d> hand_eye_offset() const {
+    if (!options.hand_eye_priors || iterations.empty()) return std::nullopt;
     const json& he = iterations.back().hand_eye;
-    if (!he.is_object() || !he.value("significant", false)) return {};
+    if (!he.is_object() || !he.value("significant", false)) return std::nullopt;
     const auto t = he.at("translation"), r = he.at("rotation_deg");
     const Vec3 tv(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
     const Vec3 rv(r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
@@ -1026,6 +1038,12 @@ struct Session::Impl {
     if (rv.norm() > 0)
       H.linear() = Eigen::AngleAxisd(rv.norm() * std::numbers::pi / 180.0, rv.normalized()).toRotationMatrix();
     H.translation() = tv;
+    return H;
+  }
+  std::vector<Eigen::Isometry3d> hand_eye_prior_centers() const {
+    const auto h = hand_eye_offset();
+    if (!h) return {};
+    const Eigen::Isometry3d H = *h;
     std::vector<Eigen::Isometry3d> out;
     out.reserve(scans.size());
     for (const auto& s : scans) {
