@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <vector>
 
@@ -16,13 +17,7 @@ using namespace autoscan::registration;
 namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-Eigen::Isometry3d offset(const Vec3& t, const Vec3& rot_deg) {
-  Eigen::Isometry3d h = Eigen::Isometry3d::Identity();
-  if (rot_deg.norm() > 0)
-    h.linear() = Eigen::AngleAxisd(rot_deg.norm() * kDeg, rot_deg.normalized()).toRotationMatrix();
-  h.translation() = t;
-  return h;
-}
+Eigen::Isometry3d offset(const Vec3& t, const Vec3& rot_deg) { return rigid_from_vectors(t, rot_deg); }
 
 // Views around an object, as a robot commands them.
 std::vector<Eigen::Isometry3d> ring(int n) {
@@ -54,6 +49,13 @@ TEST(HandEye, AnOffsetSharedByEveryScanIsRecoveredExactly) {
   EXPECT_LT(e.rotation_se_deg, 1e-6);
   EXPECT_TRUE(e.observable);
   EXPECT_TRUE(e.significant);
+  // The JSON round trip rebuilds the offset; a malformed record names its field.
+  const auto back = hand_eye_from_json(to_json(e), "hand_eye");
+  EXPECT_LT((back.offset.matrix() - e.offset.matrix()).norm(), 1e-9);
+  EXPECT_EQ(back.significant, e.significant);
+  auto bad = to_json(e);
+  bad["translation"] = {1, 2};
+  EXPECT_THROW(hand_eye_from_json(bad, "hand_eye"), InputError);
   // A ring at one height turns about one axis: the translation along it is unobservable.
   std::vector<Eigen::Isometry3d> flat, flat_reg;
   for (int i = 0; i < 8; ++i) {

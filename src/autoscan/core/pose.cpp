@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <utility>
 #include <vector>
 
@@ -59,6 +60,14 @@ Pose Pose::look_at(const Vec3& position, const Vec3& target, const Vec3& up) {
   p.direction = target - position;
   p.up = up;
   return p.normalized();
+}
+
+Eigen::Isometry3d rigid_from_vectors(const Vec3& translation, const Vec3& rotation_deg) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const Vec3 rv = rotation_deg * (std::numbers::pi / 180.0);
+  if (rv.norm() > 0) T.linear() = Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
+  T.translation() = translation;
+  return T;
 }
 
 Pose Pose::transformed(const Eigen::Isometry3d& T) const {

@@ -4,9 +4,8 @@
 // maps camera coordinates to world coordinates.
 // Text forms (docs/conventions.md): JSON {"position":[x,y,z],"direction":[dx,dy,dz],"up":[ux,uy,uz]}
 // and on the command line "px,py,pz,dx,dy,dz" (up defaults to +Z).
-#include <nlohmann/json_fwd.hpp>
-
 #include <Eigen/Geometry>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <string_view>
 
@@ -32,6 +31,10 @@ struct Pose {
   /// The pose after applying a rigid transform (world frame).
   Pose transformed(const Eigen::Isometry3d& T) const;
 };
+
+/// The rigid transform of a translation and a rotation vector in degrees (axis × angle): the form
+/// of a hand-eye offset (NoiseSpec::hand_eye_*, registration/hand_eye.hpp).
+Eigen::Isometry3d rigid_from_vectors(const Vec3& translation, const Vec3& rotation_deg);
 
 /// Parses "px,py,pz,dx,dy,dz" or a JSON object (see above). Throws InputError naming `what`.
 Pose parse_pose(std::string_view text, const std::string& what = "--pose");

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "autoscan/core/error.hpp"
+#include "autoscan/core/pose.hpp"
 
 namespace autoscan::registration {
 
@@ -79,7 +80,7 @@ HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
   e.offset.linear() = R;
   e.offset.translation() = t;
   e.translation = t;
-  e.rotation_deg = log_so3(R) * kRadToDeg;
+  e.rotation_deg = log_so3(R) * kRadToDeg;  // (offset == rigid_from_vectors(translation, rotation_deg))
   // Residuals and standard errors.
   double sr = 0.0, st = 0.0;
   for (const auto& m : motions) {
@@ -112,6 +113,37 @@ nlohmann::json to_json(const HandEyeEstimate& e) {
           {"residual_rotation_deg", e.residual_rotation_deg},
           {"observable", e.observable},
           {"significant", e.significant}};
+}
+
+HandEyeEstimate hand_eye_from_json(const nlohmann::json& j, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected an object", what);
+  auto vec = [&](const char* key) {
+    AUTOSCAN_REQUIRE(j.contains(key) && j.at(key).is_array() && j.at(key).size() == 3 &&
+                         std::all_of(j.at(key).begin(), j.at(key).end(), [](const auto& x) { return x.is_number(); }),
+                     "{}.{}: expected an array of 3 numbers", what, key);
+    return Vec3(j.at(key)[0].get<double>(), j.at(key)[1].get<double>(), j.at(key)[2].get<double>());
+  };
+  auto num = [&](const char* key) {
+    AUTOSCAN_REQUIRE(j.contains(key) && j.at(key).is_number(), "{}.{}: expected a number", what, key);
+    return j.at(key).get<double>();
+  };
+  auto flag = [&](const char* key) {
+    AUTOSCAN_REQUIRE(j.contains(key) && j.at(key).is_boolean(), "{}.{}: expected true or false", what, key);
+    return j.at(key).get<bool>();
+  };
+  HandEyeEstimate e;
+  AUTOSCAN_REQUIRE(j.contains("scans") && j.at("scans").is_number_integer(), "{}.scans: expected an integer", what);
+  e.scans = j.at("scans").get<int>();
+  e.translation = vec("translation");
+  e.rotation_deg = vec("rotation_deg");
+  e.offset = rigid_from_vectors(e.translation, e.rotation_deg);
+  e.translation_se = num("translation_se");
+  e.rotation_se_deg = num("rotation_se_deg");
+  e.residual_translation = num("residual_translation");
+  e.residual_rotation_deg = num("residual_rotation_deg");
+  e.observable = flag("observable");
+  e.significant = flag("significant");
+  return e;
 }
 
 }  // namespace autoscan::registration

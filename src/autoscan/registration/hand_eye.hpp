@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json_fwd.hpp>
 #include <span>
+#include <string>
 
 #include "autoscan/core/types.hpp"
 
@@ -41,5 +42,8 @@ HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
                                   std::span<const Eigen::Isometry3d> registered);
 
 nlohmann::json to_json(const HandEyeEstimate& e);
+/// The estimate as to_json wrote it (offset rebuilt from translation and rotation_deg). Throws
+/// InputError naming `what` and the field for a malformed object.
+HandEyeEstimate hand_eye_from_json(const nlohmann::json& j, const std::string& what);
 
 }  // namespace autoscan::registration

@@ -500,13 +500,8 @@ ScanResult VirtualScanner::scan(const Pose& commanded, std::uint64_t scan_id, st
   // The systematic hand-eye error (NoiseSpec::hand_eye_*): the same motion in the scanner's frame
   // in every scan; the random part below moves the scanner from there.
   Eigen::Isometry3d world_from_cmd = commanded.world_from_camera();
-  if (noise.has_hand_eye()) {
-    Eigen::Isometry3d H = Eigen::Isometry3d::Identity();
-    const Vec3 rv = noise.hand_eye_rotation_deg * kDegToRad;
-    if (rv.norm() > 0) H.linear() = Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
-    H.translation() = noise.hand_eye_translation;
-    world_from_cmd = world_from_cmd * H;
-  }
+  if (noise.has_hand_eye())
+    world_from_cmd = world_from_cmd * rigid_from_vectors(noise.hand_eye_translation, noise.hand_eye_rotation_deg);
   Eigen::Isometry3d world_from_true = world_from_cmd;
   // Robot pose error: rotation about a random axis through the sensor, and a translation.
   Rng pose_rng = scan_rng.stream(0);

@@ -493,7 +493,10 @@ IterationRecord iteration_from_json(const json& j, const std::string& what, int 
     certificate_from_json(j.at("certificate"), what + ".certificate");  // validated; kept as written
     r.certificate = j.at("certificate");
   }
-  if (j.contains("hand_eye")) r.hand_eye = object_or_null(j.at("hand_eye"), what + ".hand_eye");
+  if (j.contains("hand_eye")) {
+    r.hand_eye = object_or_null(j.at("hand_eye"), what + ".hand_eye");
+    if (!r.hand_eye.is_null()) registration::hand_eye_from_json(r.hand_eye, what + ".hand_eye");  // validated
+  }
   r.stopped = boolean(member(j, "stopped", what), what + ".stopped");
   r.stop_reason = string_or_null(member(j, "stop_reason", what), what + ".stop_reason");
   return r;
@@ -1028,17 +1031,10 @@ struct Session::Impl {
   // With options.hand_eye_priors and a significant estimate at the last iteration: per scan, the
   // world-frame correction the offset explains, C_i Ĥ C_i⁻¹ (the priors' centres); else none.
   std::optional<Eigen::Isometry3d> hand_eye_offset() const {
-    if (!options.hand_eye_priors || iterations.empty()) return std::nullopt;
-    const json& he = iterations.back().hand_eye;
-    if (!he.is_object() || !he.value("significant", false)) return std::nullopt;
-    const auto t = he.at("translation"), r = he.at("rotation_deg");
-    const Vec3 tv(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
-    const Vec3 rv(r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
-    Eigen::Isometry3d H = Eigen::Isometry3d::Identity();
-    if (rv.norm() > 0)
-      H.linear() = Eigen::AngleAxisd(rv.norm() * std::numbers::pi / 180.0, rv.normalized()).toRotationMatrix();
-    H.translation() = tv;
-    return H;
+    if (!options.hand_eye_priors || iterations.empty() || iterations.back().hand_eye.is_null()) return std::nullopt;
+    const auto e = registration::hand_eye_from_json(iterations.back().hand_eye, "hand_eye");
+    if (!e.significant) return std::nullopt;
+    return e.offset;
   }
   std::vector<Eigen::Isometry3d> hand_eye_prior_centers() const {
     const auto h = hand_eye_offset();
