@@ -21,10 +21,35 @@ constexpr double kMinAngle = 1e-3;  // radians
 // Near a half turn the rotation vector's axis flips sign under the least noise: such pairs are left
 // out too.
 constexpr double kMaxAngle = 0.8 * std::numbers::pi;
+// A direction of the rotation (or translation) is observable when its information is at least this
+// share of the strongest direction's: motion axes spread by about √0.01 = 0.1 rad (6 degrees). A ring
+// whose axes differ by the registration's noise alone (tenths of a degree) has one axis.
+constexpr double kMinInformationShare = 0.01;
+
+int observable_rank(const Eigen::SelfAdjointEigenSolver<Mat3>& eig) {
+  const double top = eig.eigenvalues()(2);
+  if (!(top > 0.0)) return 0;
+  int r = 0;
+  for (int c = 0; c < 3; ++c) r += eig.eigenvalues()(c) >= kMinInformationShare * top ? 1 : 0;
+  return r;
+}
 
 Vec3 log_so3(const Mat3& R) {
   const Eigen::AngleAxisd aa(R);
   return aa.angle() * aa.axis();
+}
+// The pseudo-inverse over the `rank` strongest directions.
+Mat3 pseudo_inverse(const Eigen::SelfAdjointEigenSolver<Mat3>& eig, int rank) {
+  Mat3 out = Mat3::Zero();
+  for (int c = 3 - rank; c < 3; ++c)
+    out += eig.eigenvectors().col(c) * eig.eigenvectors().col(c).transpose() / eig.eigenvalues()(c);
+  return out;
+}
+
+Mat3 skew(const Vec3& v) {
+  Mat3 m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
 }
 }  // namespace
 
@@ -59,11 +84,21 @@ HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
     M += m.alpha * m.beta.transpose();
     info_r += m.beta.squaredNorm() * Mat3::Identity() - m.beta * m.beta.transpose();
   }
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig_r(info_r);
+  e.rotation_rank = observable_rank(eig_r);
   const Eigen::JacobiSVD<Mat3> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3 D = Mat3::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  const Mat3 R = svd.matrixU() * D * svd.matrixV().transpose();
-  // Translation: (R_A − I) t = R t_B − t_A.
+  Mat3 R;
+  if (e.rotation_rank == 3) {
+    Mat3 D = Mat3::Identity();
+    D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    R = svd.matrixU() * D * svd.matrixV().transpose();
+  } else {
+    // One axis (M ≈ s u vᵀ, α ∥ u, β ∥ v): the turn about it is a gauge (see the header); the
+    // smallest rotation taking v to u fixes it.
+    R = Eigen::Quaterniond::FromTwoVectors(Vec3(svd.matrixV().col(0)), Vec3(svd.matrixU().col(0))).toRotationMatrix();
+  }
+  // Translation: (R_A − I) t = R t_B − t_A, in least squares; along an unobservable direction 0
+  // (the minimum-norm solution).
   Mat3 JtJ = Mat3::Zero();
   Vec3 Jtr = Vec3::Zero();
   for (const auto& m : motions) {
@@ -72,11 +107,14 @@ HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
     Jtr += J.transpose() * (R * m.b.translation() - m.a.translation());
   }
   const Eigen::SelfAdjointEigenSolver<Mat3> eig_t(JtJ);
-  const Eigen::SelfAdjointEigenSolver<Mat3> eig_r(info_r);
-  const double lt = eig_t.eigenvalues()(0), lr = eig_r.eigenvalues()(0);
-  // Observable: the weakest direction holds a useful share of the strongest (two axes at least).
-  e.observable = lt > 1e-6 * eig_t.eigenvalues()(2) && lr > 1e-6 * eig_r.eigenvalues()(2) && lt > 0 && lr > 0;
-  const Vec3 t = e.observable ? Vec3(JtJ.ldlt().solve(Jtr)) : Vec3::Zero();
+  e.translation_rank = observable_rank(eig_t);
+  e.observable = e.rotation_rank == 3 && e.translation_rank == 3;
+  Vec3 t = Vec3::Zero();
+  for (int c = 3 - e.translation_rank; c < 3; ++c)
+    t += eig_t.eigenvectors().col(c) * (eig_t.eigenvectors().col(c).dot(Jtr) / eig_t.eigenvalues()(c));
+  // The weakest observable direction of each (the standard errors are the worst direction's).
+  const double lt = e.translation_rank > 0 ? eig_t.eigenvalues()(3 - e.translation_rank) : 0.0;
+  const double lr = e.rotation_rank > 0 ? eig_r.eigenvalues()(3 - e.rotation_rank) : 0.0;
   e.offset.linear() = R;
   e.offset.translation() = t;
   e.translation = t;
@@ -90,14 +128,23 @@ HandEyeEstimate estimate_hand_eye(std::span<const Eigen::Isometry3d> commanded,
   const double k = double(motions.size());
   e.residual_rotation_deg = std::sqrt(sr / k) * kRadToDeg;
   e.residual_translation = std::sqrt(st / k);
-  if (e.observable && motions.size() > 1) {
+  if (lt > 0.0 && lr > 0.0 && motions.size() > 1) {
     const double dof = std::max(1.0, 3.0 * k - 3.0);
     const double scale = k / std::max(1.0, double(n) - 1.0);  // n − 1 independent motions
-    e.rotation_se_deg = std::sqrt(sr / dof / lr * scale) * kRadToDeg;
-    e.translation_se = std::sqrt(st / dof / lt * scale);
+    const double var_r = sr / dof * scale, var_t = st / dof * scale;
+    e.rotation_se_deg = std::sqrt(var_r / lr) * kRadToDeg;
+    // The translation's covariance: its own least squares, plus the rotation's error carried over
+    // through R t_B (a rotation error δ moves the right side by −[R t_B]× δ: with motions a metre
+    // long, 0.05 degrees are a millimetre).
+    const Mat3 Jpinv = pseudo_inverse(eig_t, e.translation_rank);
+    Mat3 G = Mat3::Zero();
+    for (const auto& m : motions) G += (m.a.linear() - Mat3::Identity()).transpose() * skew(R * m.b.translation());
+    G = Jpinv * G;
+    const Mat3 cov_t = var_t * Jpinv + var_r * G * pseudo_inverse(eig_r, e.rotation_rank) * G.transpose();
+    e.translation_se = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Mat3>(cov_t).eigenvalues()(2)));
   }
   // (floors: with exact poses the residuals, and so the errors, are 0; a round-off offset is not one)
-  e.significant = e.observable && n >= 4 &&
+  e.significant = e.rotation_rank >= 2 && e.translation_rank >= 2 && n >= 4 &&
                   (t.norm() > std::max(3.0 * e.translation_se, 1e-9) ||
                    e.rotation_deg.norm() > std::max(3.0 * e.rotation_se_deg, 1e-6));
   return e;
@@ -112,6 +159,8 @@ nlohmann::json to_json(const HandEyeEstimate& e) {
           {"residual_translation", e.residual_translation},
           {"residual_rotation_deg", e.residual_rotation_deg},
           {"observable", e.observable},
+          {"rotation_rank", e.rotation_rank},
+          {"translation_rank", e.translation_rank},
           {"significant", e.significant}};
 }
 
@@ -143,6 +192,15 @@ HandEyeEstimate hand_eye_from_json(const nlohmann::json& j, const std::string& w
   e.residual_rotation_deg = num("residual_rotation_deg");
   e.observable = flag("observable");
   e.significant = flag("significant");
+  // (absent before the ring's partial estimate: an observable estimate had both ranks 3, else 0)
+  auto rank = [&](const char* key) {
+    if (!j.contains(key)) return e.observable ? 3 : 0;
+    AUTOSCAN_REQUIRE(j.at(key).is_number_integer() && j.at(key).get<int>() >= 0 && j.at(key).get<int>() <= 3,
+                     "{}.{}: expected an integer from 0 to 3", what, key);
+    return j.at(key).get<int>();
+  };
+  e.rotation_rank = rank("rotation_rank");
+  e.translation_rank = rank("translation_rank");
   return e;
 }
 

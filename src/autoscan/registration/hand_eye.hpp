@@ -8,8 +8,12 @@
 // B = R_i⁻¹ R_j satisfy A H = H B: the classic AX = XB of hand-eye calibration, solved in closed
 // form as Park & Martin (IEEE T-RA 1994): the rotation maps the rotation vectors of B onto those of
 // A (Kabsch over all pairs), then the translation solves (R_A − I) t = R_H t_B − t_A in least
-// squares. Needs motions about at least two axes (a ring at one height rotates about one: its
-// translation along that axis is unobservable and the estimate says so through its error).
+// squares. Motions about two axes at least determine H. A ring at one height (a turntable) turns
+// about one axis a: H is then known up to a turn about a and a shift along it, and that part is a
+// gauge: for every S that commutes with all B (a screw about B's axis), H S solves AX = XB too, and
+// C_i H S = Z C_i H with one Z for all scans (the turntable's axis is the same line for every scan),
+// a rigid motion of the whole model that no registration can see. The estimate then takes the
+// smallest rotation and the minimum-norm translation (rotation_rank, translation_rank 2).
 // Uncertainty: the least-squares covariance from the pairs' residuals, scaled by pairs / (scans − 1)
 // since the pairs of n scans hold n − 1 independent motions.
 #include <Eigen/Geometry>
@@ -31,9 +35,13 @@ struct HandEyeEstimate {
   double residual_translation = 0.0;   ///< RMS of the pairs' translation residuals (scene units)
   double residual_rotation_deg = 0.0;  ///< RMS of the pairs' rotation residuals (degrees)
   /// The estimate stands out of its noise: |t| > 3 translation_se (and 1e-9) or |θ| > 3
-  /// rotation_se_deg (and 1e-6 degrees), with at least 4 scans and both observable.
+  /// rotation_se_deg (and 1e-6 degrees), with at least 4 scans and both ranks at least 2.
   bool significant = false;
-  bool observable = false;  ///< the motions turn about at least two axes
+  bool observable = false;  ///< the motions turn about at least two axes (both ranks 3)
+  /// Observable directions of the rotation and of the translation: 3 with two motion axes or more
+  /// (spread by 6 degrees at least), 2 on a one-axis ring (the rest is the gauge above).
+  int rotation_rank = 0;
+  int translation_rank = 0;
 };
 
 /// H from the scans' commanded C_i and registered R_i, both world_from_camera (R_i's frame may be
