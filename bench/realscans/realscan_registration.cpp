@@ -9,7 +9,12 @@
 //   * the Poisson mesh: median distance of the truly aligned scan points to it, and the share
 //     farther than 0.5 mm.
 // Usage: realscan_registration DIR OUT [--sigma-t M] [--sigma-r DEG] [--seed S] [--no-global] [--cap K]
-//        [--depth D] [--sensor-distance M] [--json FILE]
+//        [--depth D] [--sensor-distance M] [--json FILE] [--hand-eye tx,ty,tz,rx,ry,rz] [--hand-eye-priors]
+// --hand-eye: a hand-eye error H (metres, rotation vector in degrees, the scanner's frame) shared by
+// every scan on top of the random error: the robot reports C_i = P_i H⁻¹ for the true P_i. The
+// session's estimate is compared with what the estimator gives from the exact C_i and C_i H (the same
+// gauge: on the turntable's one axis the turn about it and the shift along it are not seen,
+// registration/hand_eye.hpp).
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -25,9 +30,11 @@
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/log.hpp"
+#include "autoscan/core/pose.hpp"
 #include "autoscan/core/random.hpp"
 #include "autoscan/eval/mesh_distance.hpp"
 #include "autoscan/io/mesh_io.hpp"
+#include "autoscan/registration/hand_eye.hpp"
 #include "autoscan/registration/icp.hpp"
 #include "autoscan/session/session.hpp"
 #include "autoscan/spatial/kdtree.hpp"
@@ -97,6 +104,8 @@ int main(int argc, char** argv) {
   std::size_t samples = 0;
   int rounds = 0, cap = -1, normal_k = -1, anchor_points = -1;
   std::string json_out;
+  bool hand_eye_priors = false;
+  Eigen::Isometry3d hand_eye = Eigen::Isometry3d::Identity();
   for (int a = 3; a < argc; ++a) {
     const std::string k = argv[a];
     auto next = [&]() -> std::string { return a + 1 < argc ? argv[++a] : ""; };
@@ -140,6 +149,15 @@ int main(int argc, char** argv) {
       normal_k = std::stoi(next());
     else if (k == "--anchor-points")
       anchor_points = std::stoi(next());
+    else if (k == "--hand-eye") {
+      double v[6];
+      if (std::sscanf(next().c_str(), "%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5]) != 6) {
+        std::fprintf(stderr, "--hand-eye: expected tx,ty,tz,rx,ry,rz\n");
+        return 2;
+      }
+      hand_eye = rigid_from_vectors(Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5]));
+    } else if (k == "--hand-eye-priors")
+      hand_eye_priors = true;
     else if (k == "--boundary")
       boundary = std::stod(next());
     else {
@@ -161,6 +179,7 @@ int main(int argc, char** argv) {
   Rng rng(seed);
   std::vector<Eigen::Isometry3d> error;
   std::vector<Pose> reported;
+  std::vector<Eigen::Isometry3d> commanded_exact, reported_exact;  // C_i and C_i H (hand-eye check)
   for (const auto& s : scans) {
     const Vec3 axis = s.pose.linear() * Vec3::UnitZ();
     const Vec3 sensor = centre + sensor_distance * axis;
@@ -175,8 +194,13 @@ int main(int argc, char** argv) {
       for (int c = 0; c < 3; ++c) t[c] = sigma_t * rng.normal();  // in sequence: deterministic
       E = Eigen::Translation3d(t) * S * Rt * S.inverse();
     }
+    const Pose truth = Pose::look_at(sensor, centre, Vec3::UnitY());
+    const Eigen::Isometry3d P = truth.world_from_camera();
+    E = E * P * hand_eye.inverse() * P.inverse();  // C_i = E_rand P_i H⁻¹
     error.push_back(E);
-    reported.push_back(Pose::look_at(sensor, centre, Vec3::UnitY()).transformed(E));
+    reported.push_back(truth.transformed(E));
+    commanded_exact.push_back(reported.back().world_from_camera());
+    reported_exact.push_back(commanded_exact.back() * hand_eye);
   }
 
   fs::remove_all(out);
@@ -190,6 +214,7 @@ int main(int argc, char** argv) {
   Rig rig;
   session::SessionOptions opt;
   opt.max_iterations = 1;
+  opt.hand_eye_priors = hand_eye_priors;
   opt.global_registration = global;
   opt.multiway.robot_translation_sigma = prior_scale * (sigma_t > 0 ? sigma_t : 0.003);
   opt.multiway.robot_rotation_sigma_deg = prior_scale * (sigma_r > 0 ? sigma_r : 1.0);
@@ -334,6 +359,24 @@ int main(int argc, char** argv) {
                 1e3 * consistency([&](std::size_t, const Vec3& p) { return p; }),
                 1e3 * consistency([&](std::size_t i, const Vec3& p) { return Vec3(corr[i] * (error[i] * p)); }));
   }
+  // The hand-eye estimate against the injected offset, in the estimator's gauge.
+  nlohmann::json he = sess.iterations().back().hand_eye;
+  double he_t_err = -1.0, he_r_err = -1.0;
+  if (!he.is_null()) {
+    const auto est = registration::hand_eye_from_json(he, "hand_eye");
+    const auto ref = registration::estimate_hand_eye(commanded_exact, reported_exact);
+    he_t_err = (est.translation - ref.translation).norm();
+    he_r_err =
+        Eigen::AngleAxisd(est.offset.linear() * ref.offset.linear().transpose()).angle() * 180 / std::numbers::pi;
+    std::printf(
+        "hand-eye estimate: (%.3f %.3f %.3f) mm ± %.3f, (%.3f %.3f %.3f) deg ± %.3f, ranks %d/%d, %s; injected in "
+        "the same gauge (%.3f %.3f %.3f) mm, (%.3f %.3f %.3f) deg: error %.3f mm, %.3f deg\n",
+        1e3 * est.translation.x(), 1e3 * est.translation.y(), 1e3 * est.translation.z(), 1e3 * est.translation_se,
+        est.rotation_deg.x(), est.rotation_deg.y(), est.rotation_deg.z(), est.rotation_se_deg, est.rotation_rank,
+        est.translation_rank, est.significant ? "significant" : "not significant", 1e3 * ref.translation.x(),
+        1e3 * ref.translation.y(), 1e3 * ref.translation.z(), ref.rotation_deg.x(), ref.rotation_deg.y(),
+        ref.rotation_deg.z(), 1e3 * he_t_err, he_r_err);
+  }
   std::printf("%-26s %10s %10s %8s\n", "scan", "before mm", "after mm", "flagged");
   for (std::size_t i = 0; i < scans.size(); ++i)
     std::printf("%-26s %10.3f %10.3f %8s\n", scans[i].name.c_str(), 1e3 * scan_before[i], 1e3 * scan_after[i],
@@ -357,6 +400,9 @@ int main(int argc, char** argv) {
                       {"mesh_median_mm", 1e3 * mesh_median},
                       {"mesh_far_share", far_share},
                       {"registration", g},
+                      {"hand_eye", he},
+                      {"hand_eye_translation_error_mm", 1e3 * he_t_err},
+                      {"hand_eye_rotation_error_deg", he_r_err},
                       {"seconds", sess.iterations().back().seconds}};
   for (auto& v : j["scan_before_mm"]) v = v.get<double>() * 1e3;
   for (auto& v : j["scan_after_mm"]) v = v.get<double>() * 1e3;

@@ -747,6 +747,9 @@ std::vector<Eigen::Isometry3d> MultiwayRun::solve_with_rejection(std::vector<cha
     go.robust_scale = o_.robust_scale;
     const PoseGraphResult g = solve_pose_graph(X_, fixed, edges, priors, go);
     solved = g.poses;
+    res_.pair_chi2 = 0.0;
+    for (const double c : g.edge_chi2) res_.pair_chi2 += c;
+    res_.pair_chi2_pairs = edges.size();
     // Drop the pairs that disagree with the solution, then the scans beyond the robot's accuracy.
     bool changed = false;
     // The typical residual of a pair: the median over the overlapping pairs.
@@ -963,6 +966,8 @@ nlohmann::json to_json(const MultiwayResult& r) {
           {"seconds_prepare", r.seconds_prepare},
           {"seconds_fits", r.seconds_fits},
           {"seconds_select", r.seconds_select},
+          {"pair_chi2", r.pair_chi2},
+          {"pair_chi2_pairs", r.pair_chi2_pairs},
           {"pairs", pairs},
           {"scans", scans}};
 }

@@ -223,6 +223,11 @@ struct MultiwayResult {
   /// The scans' preparation (surface fits of the scans not cached, their search trees) and the
   /// overlap tests that select the pairs.
   double seconds_prepare = 0.0, seconds_fits = 0.0, seconds_select = 0.0;
+  /// The pairs' misfit at the last solution: Σ eᵀ Λ e over the pairs used (Λ each pair's
+  /// information, `information_points`), and how many pairs it sums. With pair errors as the
+  /// information says, about 6 per pair; two solutions of the same scans compare by it.
+  double pair_chi2 = 0.0;
+  std::size_t pair_chi2_pairs = 0;
 };
 
 /// Registers `scans` to each other.

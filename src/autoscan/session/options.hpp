@@ -151,8 +151,21 @@ struct SessionOptions {
   /// The global registration's robot priors centred on the reported poses with the estimated
   /// hand-eye offset applied (C_i Ĥ, Ĥ the last iteration's significant estimate,
   /// IterationRecord::hand_eye; docs/registration.md "Hand-eye offset"), and each new scan's ICP
-  /// started there. false: on the reported poses.
+  /// started there. When an iteration's estimate becomes significant or moves by more than twice
+  /// its standard errors, every scan is registered once more around the new centres (the
+  /// iteration's registration record says "hand_eye_repass"). false: on the reported poses.
   bool hand_eye_priors = false;
+  /// With hand_eye_priors, until the estimate is significant: how far the hand-eye calibration may
+  /// be off (one standard deviation; scene units, degrees), added in quadrature to the robot's
+  /// accuracy (multiway.robot_*_sigma) in the registration's priors, so that an error shared by
+  /// every scan is not taken for outliers. Once it is, the priors are the robot's accuracy and the
+  /// estimate's standard errors in quadrature.
+  double hand_eye_translation_sigma = 0.005;
+  double hand_eye_rotation_sigma_deg = 2.0;
+  /// With hand_eye_priors: a new estimate is applied only when the solution around C_i Ĥ keeps
+  /// fewer scans out than the plain one, or as many and its pairs' mean chi2
+  /// (MultiwayResult::pair_chi2) is lower by at least this share.
+  double hand_eye_min_fit_gain = 0.0;
   registration::MultiwayOptions multiway;  ///< the robot's accuracy, overlap, rounds, outlier rule
   /// §5.3 registration acceptance. ICP's correction is applied only when it lowers the residual RMS by
   /// at least this share: on noisy data a correction that does not fit better is the scan sliding
@@ -220,6 +233,9 @@ struct SessionOptions {
     v("register_scans", register_scans);
     v("global_registration", global_registration);
     v("hand_eye_priors", hand_eye_priors);
+    v("hand_eye_translation_sigma", hand_eye_translation_sigma, schema::at_least(0));
+    v("hand_eye_rotation_sigma_deg", hand_eye_rotation_sigma_deg, schema::at_least(0));
+    v("hand_eye_min_fit_gain", hand_eye_min_fit_gain, schema::closed_open(0, 1));
     v("multiway", multiway);
     v("registration_min_improvement", registration_min_improvement, schema::closed_open(0, 1));
     v("registration_max_translation", registration_max_translation, schema::at_least(0));

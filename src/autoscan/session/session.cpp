@@ -832,24 +832,123 @@ struct Session::Impl {
   }
 
   // The global multi-view registration of an iteration (docs/registration.md): the scans added since
-  // the last iteration are freed, with the scans they overlap; the others anchor them.
+  // the last iteration are freed, with the scans they overlap; the others anchor them. With
+  // options.hand_eye_priors, when the hand-eye estimate from that solution (its flagged scans
+  // included: an error shared by every scan is no outlier) is significant and differs from the one
+  // the priors were centred on, every scan is solved once more around the new estimate's centres,
+  // starting from the first solution; only the second solution is applied and flags scans.
   void global_registration(IterationRecord& it) {
     const int first = pending_from();
     const int n = static_cast<int>(scans.size());
     if (!options.register_scans || !options.global_registration || first >= n) return;
-    std::vector<Vec3> sensors(scans.size());
-    std::vector<Eigen::Isometry3d> initial(scans.size());
     std::vector<char> free(scans.size(), 0);
-    for (int i = 0; i < n; ++i) {
-      const auto& r = scans[static_cast<std::size_t>(i)];
-      sensors[static_cast<std::size_t>(i)] = r.reported_pose.position;
-      initial[static_cast<std::size_t>(i)] = r.correction;
-      free[static_cast<std::size_t>(i)] = i >= first && !r.excluded ? 1 : 0;
+    for (int i = first; i < n; ++i)
+      free[static_cast<std::size_t>(i)] = scans[static_cast<std::size_t>(i)].excluded ? 0 : 1;
+    std::vector<Eigen::Isometry3d> initial;
+    for (const auto& r : scans) initial.push_back(r.correction);
+    const auto last = options.hand_eye_priors ? last_hand_eye() : std::nullopt;
+    const bool applied = last && last->significant;
+    // The plain solution: the priors on the reported poses, or around C_i Ĥ of the applied estimate.
+    auto res = solve_multiway(free, initial, hand_eye_prior_centers(),
+                              applied ? std::pair{last->translation_se, last->rotation_se_deg} : std::pair{0.0, 0.0});
+    double seconds = res.seconds;
+    bool repass = false;
+    json hand_eye_test = nullptr;
+    if (options.hand_eye_priors) {
+      // The offset's evidence: the plain solution once an estimate is applied; before, a solution with
+      // the priors widened by the calibration's uncertainty (a shared error is then no outlier).
+      registration::MultiwayResult wide;
+      const registration::MultiwayResult* evidence = &res;
+      if (!applied) {
+        wide = solve_multiway(free, initial, {},
+                              {options.hand_eye_translation_sigma, options.hand_eye_rotation_sigma_deg});
+        seconds += wide.seconds;
+        evidence = &wide;
+      }
+      const json now = hand_eye_estimate(evidence, false);
+      const auto h = now.is_null() ? std::nullopt : std::optional(registration::hand_eye_from_json(now, "hand_eye"));
+      if (h && hand_eye_changed(*h)) {
+        std::vector<char> all(scans.size(), 0);
+        for (int i = 0; i < n; ++i)
+          all[static_cast<std::size_t>(i)] = scans[static_cast<std::size_t>(i)].excluded ? 0 : 1;
+        auto with = solve_multiway(all, evidence->corrections, prior_centers_for(h->offset),
+                                   {h->translation_se, h->rotation_se_deg});
+        seconds += with.seconds;
+        // Taken when it keeps fewer scans out than the plain solution, or as many and fits the pairs
+        // better on average by the share hand_eye_min_fit_gain.
+        const auto flagged = [](const registration::MultiwayResult& r) {
+          return std::count_if(r.scans.begin(), r.scans.end(), [](const auto& sc) { return sc.flagged; });
+        };
+        const auto mean_chi2 = [](const registration::MultiwayResult& r) {
+          return r.pair_chi2_pairs > 0 ? r.pair_chi2 / double(r.pair_chi2_pairs) : 0.0;
+        };
+        const auto fw = flagged(with), fp = flagged(res);
+        const bool take =
+            fw < fp || (fw == fp && mean_chi2(with) < (1.0 - options.hand_eye_min_fit_gain) * mean_chi2(res));
+        hand_eye_test = {{"mean_pair_chi2_with", mean_chi2(with)},
+                         {"mean_pair_chi2_plain", mean_chi2(res)},
+                         {"flagged_with", fw},
+                         {"flagged_plain", fp},
+                         {"taken", take}};
+        log::info(
+            "iteration {}: hand-eye offset tested on all {} scans: pairs' mean chi2 {:.3g} with it, {:.3g} without; {} "
+            "and {} scans kept out: {}",
+            it.index, std::count(all.begin(), all.end(), 1), mean_chi2(with), mean_chi2(res), fw, fp,
+            take ? "taken" : "not taken");
+        if (take) {
+          res = std::move(with);
+          free = std::move(all);
+        }
+        repass = true;
+      }
     }
+    const auto [moved, excluded] = apply_multiway(res, it);
+    // Points of the scans before this iteration's (for the "new" flags of cloud.ply).
+    const auto& sid = model.scalars.get("scan_id");
+    model_size_at_last_iteration = static_cast<std::size_t>(
+        std::count_if(sid.begin(), sid.end(), [&](double v) { return static_cast<int>(v) < first; }));
+    json summary = registration::to_json(res);
+    summary["scans_moved"] = moved;
+    summary["scans_excluded"] = excluded;
+    if (repass) summary["hand_eye_repass"] = true;
+    if (!hand_eye_test.is_null()) summary["hand_eye_test"] = std::move(hand_eye_test);
+    summary["seconds"] = seconds;
+    it.registration = std::move(summary);
+    it.seconds["global_registration"] = seconds;
+    log::info(
+        "iteration {}: global registration of {} scans: {} pairs used ({} bridging), {} dropped, {} scans kept out "
+        "({:.2f} s)",
+        it.index, std::count(free.begin(), free.end(), 1), it.registration["pairs_used"].get<std::size_t>(),
+        it.registration["pairs_bridging"].get<std::size_t>(), it.registration["pairs_dropped"].get<std::size_t>(),
+        excluded, seconds);
+  }
+
+  // One register_multiway over the free scans from `initial`, the priors centred on `centers` (none:
+  // the reported poses) and widened by `widen` (translation, degrees; in quadrature).
+  registration::MultiwayResult solve_multiway(const std::vector<char>& free,
+                                              const std::vector<Eigen::Isometry3d>& initial,
+                                              const std::vector<Eigen::Isometry3d>& centers,
+                                              std::pair<double, double> widen) {
+    std::vector<Vec3> sensors;
+    sensors.reserve(scans.size());
+    for (const auto& r : scans) sensors.push_back(r.reported_pose.position);
     reg_prepared.resize(reg_samples.size());
-    const std::vector<Eigen::Isometry3d> centers = hand_eye_prior_centers();
-    const auto res = registration::register_multiway(reg_samples, sensors, initial, free, multiway_options(), progress,
-                                                     &reg_prepared, centers);
+    auto mo = multiway_options();
+    mo.robot_translation_sigma = std::hypot(mo.robot_translation_sigma, widen.first);
+    mo.robot_rotation_sigma_deg = std::hypot(mo.robot_rotation_sigma_deg, widen.second);
+    return registration::register_multiway(reg_samples, sensors, initial, free, mo, progress, &reg_prepared, centers);
+  }
+
+  // The last iteration's hand-eye estimate, if any.
+  std::optional<registration::HandEyeEstimate> last_hand_eye() const {
+    if (iterations.empty() || iterations.back().hand_eye.is_null()) return std::nullopt;
+    return registration::hand_eye_from_json(iterations.back().hand_eye, "hand_eye");
+  }
+
+  // Applies a registration's corrections to its free scans and keeps out the scans it flags; returns
+  // how many moved and how many were kept out.
+  std::pair<int, int> apply_multiway(const registration::MultiwayResult& res, const IterationRecord& it) {
+    const int n = static_cast<int>(scans.size());
     int moved = 0, excluded = 0;
     std::vector<char> moved_flags(scans.size(), 0);
     for (int i = 0; i < n; ++i) {
@@ -880,21 +979,7 @@ struct Session::Impl {
       r.global_registration = std::move(g);
     }
     if (moved > 0) reapply_corrections(moved_flags);
-    // Points of the scans before this iteration's (for the "new" flags of cloud.ply).
-    const auto& sid = model.scalars.get("scan_id");
-    model_size_at_last_iteration = static_cast<std::size_t>(
-        std::count_if(sid.begin(), sid.end(), [&](double v) { return static_cast<int>(v) < first; }));
-    json summary = registration::to_json(res);
-    summary["scans_moved"] = moved;
-    summary["scans_excluded"] = excluded;
-    it.registration = std::move(summary);
-    it.seconds["global_registration"] = res.seconds;
-    log::info(
-        "iteration {}: global registration of {} scans: {} pairs used ({} bridging), {} dropped, {} scans kept out "
-        "({:.2f} s)",
-        it.index, std::count(free.begin(), free.end(), 1), it.registration["pairs_used"].get<std::size_t>(),
-        it.registration["pairs_bridging"].get<std::size_t>(), it.registration["pairs_dropped"].get<std::size_t>(),
-        excluded, res.seconds);
+    return {moved, excluded};
   }
 
   // The support plane of the session: the first one a scan detected (supports.hpp).
@@ -1028,18 +1113,25 @@ struct Session::Impl {
     return std::nullopt;
   }
 
-  // With options.hand_eye_priors and a significant estimate at the last iteration: per scan, the
-  // world-frame correction the offset explains, C_i Ĥ C_i⁻¹ (the priors' centres); else none.
+  // With options.hand_eye_priors and a significant estimate at the last iteration: that offset.
   std::optional<Eigen::Isometry3d> hand_eye_offset() const {
     if (!options.hand_eye_priors || iterations.empty() || iterations.back().hand_eye.is_null()) return std::nullopt;
     const auto e = registration::hand_eye_from_json(iterations.back().hand_eye, "hand_eye");
     if (!e.significant) return std::nullopt;
     return e.offset;
   }
-  std::vector<Eigen::Isometry3d> hand_eye_prior_centers() const {
-    const auto h = hand_eye_offset();
-    if (!h) return {};
-    const Eigen::Isometry3d H = *h;
+  // Whether `now` (significant) moves the priors: no estimate was applied yet, or it differs from the
+  // applied one by more than twice its standard errors.
+  bool hand_eye_changed(const registration::HandEyeEstimate& now) const {
+    if (!now.significant) return false;
+    if (iterations.empty() || iterations.back().hand_eye.is_null()) return true;
+    const auto was = registration::hand_eye_from_json(iterations.back().hand_eye, "hand_eye");
+    if (!was.significant) return true;
+    return (now.translation - was.translation).norm() > 2.0 * now.translation_se ||
+           (now.rotation_deg - was.rotation_deg).norm() > 2.0 * now.rotation_se_deg;
+  }
+  // Per scan, the world-frame correction an offset H explains, C_i H C_i⁻¹ (the priors' centres).
+  std::vector<Eigen::Isometry3d> prior_centers_for(const Eigen::Isometry3d& H) const {
     std::vector<Eigen::Isometry3d> out;
     out.reserve(scans.size());
     for (const auto& s : scans) {
@@ -1048,24 +1140,32 @@ struct Session::Impl {
     }
     return out;
   }
+  std::vector<Eigen::Isometry3d> hand_eye_prior_centers() const {
+    const auto h = hand_eye_offset();
+    return h ? prior_centers_for(*h) : std::vector<Eigen::Isometry3d>{};
+  }
 
   // The robot's hand-eye offset from the scans kept, reported against registered
-  // (registration/hand_eye.hpp); null with fewer than 2.
-  json hand_eye_estimate() const {
+  // (registration/hand_eye.hpp); null with fewer than 2. `solution`: registered = reported with its
+  // corrections instead of the scans' own, its flagged scans left out. `say`: log a significant one.
+  json hand_eye_estimate(const registration::MultiwayResult* solution = nullptr, bool say = true) const {
     std::vector<Eigen::Isometry3d> commanded, registered;
-    for (const auto& s : scans)
-      if (!s.excluded) {
-        commanded.push_back(s.reported_pose.world_from_camera());
-        registered.push_back(s.registered_pose.world_from_camera());
-      }
+    for (std::size_t i = 0; i < scans.size(); ++i) {
+      const auto& s = scans[i];
+      if (s.excluded || (solution && solution->scans[i].flagged)) continue;
+      commanded.push_back(s.reported_pose.world_from_camera());
+      registered.push_back(solution ? s.reported_pose.transformed(solution->corrections[i]).world_from_camera()
+                                    : s.registered_pose.world_from_camera());
+    }
     if (commanded.size() < 2) return nullptr;
     const auto e = registration::estimate_hand_eye(commanded, registered);
-    if (e.significant)
+    if (e.significant && say)
       log::info(
           "hand-eye offset: ({:.4g}, {:.4g}, {:.4g}) ± {:.2g}, rotation ({:.3g}, {:.3g}, {:.3g}) deg ± {:.2g} "
-          "from {} scans",
+          "from {} scans{}",
           e.translation.x(), e.translation.y(), e.translation.z(), e.translation_se, e.rotation_deg.x(),
-          e.rotation_deg.y(), e.rotation_deg.z(), e.rotation_se_deg, e.scans);
+          e.rotation_deg.y(), e.rotation_deg.z(), e.rotation_se_deg, e.scans,
+          e.observable ? "" : " (one motion axis: the part about and along it is not seen)");
     return registration::to_json(e);
   }
 
