@@ -1115,20 +1115,19 @@ struct Session::Impl {
 
   // With options.hand_eye_priors and a significant estimate at the last iteration: that offset.
   std::optional<Eigen::Isometry3d> hand_eye_offset() const {
-    if (!options.hand_eye_priors || iterations.empty() || iterations.back().hand_eye.is_null()) return std::nullopt;
-    const auto e = registration::hand_eye_from_json(iterations.back().hand_eye, "hand_eye");
-    if (!e.significant) return std::nullopt;
-    return e.offset;
+    if (!options.hand_eye_priors) return std::nullopt;
+    const auto e = last_hand_eye();
+    if (!e || !e->significant) return std::nullopt;
+    return e->offset;
   }
   // Whether `now` (significant) moves the priors: no estimate was applied yet, or it differs from the
   // applied one by more than twice its standard errors.
   bool hand_eye_changed(const registration::HandEyeEstimate& now) const {
     if (!now.significant) return false;
-    if (iterations.empty() || iterations.back().hand_eye.is_null()) return true;
-    const auto was = registration::hand_eye_from_json(iterations.back().hand_eye, "hand_eye");
-    if (!was.significant) return true;
-    return (now.translation - was.translation).norm() > 2.0 * now.translation_se ||
-           (now.rotation_deg - was.rotation_deg).norm() > 2.0 * now.rotation_se_deg;
+    const auto was = last_hand_eye();
+    if (!was || !was->significant) return true;
+    return (now.translation - was->translation).norm() > 2.0 * now.translation_se ||
+           (now.rotation_deg - was->rotation_deg).norm() > 2.0 * now.rotation_se_deg;
   }
   // Per scan, the world-frame correction an offset H explains, C_i H C_i⁻¹ (the priors' centres).
   std::vector<Eigen::Isometry3d> prior_centers_for(const Eigen::Isometry3d& H) const {
