@@ -6,7 +6,10 @@
 // other JSON file and every PLY/PNG file (timings, the "seconds" fields, aside).
 //
 // AUTOSCAN_FAULT_TRIALS sets the number of kills (default 20); AUTOSCAN_TEST_EXE runs another
-// autoscan binary (e.g. an older build, to see the test fail).
+// autoscan binary (e.g. an older build, to see the test fail). For a measurement on a larger run
+// (issue 45: a 20-view simulate of a real mesh), AUTOSCAN_FAULT_MESH and AUTOSCAN_FAULT_CONFIG
+// replace the test's capsule and config, and AUTOSCAN_FAULT_ARGS adds options (space-separated,
+// e.g. "--noise 0.5 --hand-eye 0.005,0,0,0,0,1.5"), given again to every second resume.
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -126,6 +129,18 @@ json strip(const json& j) {
 
 json read_json(const fs::path& p) { return json::parse(slurp(p), nullptr, false); }
 
+std::string env_or(const char* name, const std::string& fallback) {
+  const char* e = std::getenv(name);
+  return e && *e ? std::string(e) : fallback;
+}
+
+std::vector<std::string> split_words(const std::string& s) {
+  std::vector<std::string> out;
+  std::istringstream in(s);
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
 // Every output file, relative to the run directory (scans set aside after a kill are the recovery's
 // own record, not an output).
 std::map<std::string, fs::path> outputs(const fs::path& dir) {
@@ -213,10 +228,11 @@ TEST(FaultInjection, SimulateKilledAtRandomMomentsResumesBitIdentical) {
   // in the middle of an iteration's views, ground-truth figures.
   autoscan::TriangleMesh capsule = autoscan::icosphere(0.5, 3);
   for (auto& v : capsule.vertices) v.z() *= 1.8;
-  const fs::path mesh = root / "capsule.ply";
-  autoscan::io::write_mesh(mesh, capsule);
-  const fs::path config = root / "config.json";
-  std::ofstream(config) << R"({"scanner": {"width": 96, "height": 72, "noise": {"magnitude": 0.5}},
+  const fs::path mesh = env_or("AUTOSCAN_FAULT_MESH", (root / "capsule.ply").string());
+  if (!std::getenv("AUTOSCAN_FAULT_MESH")) autoscan::io::write_mesh(mesh, capsule);
+  const fs::path config = env_or("AUTOSCAN_FAULT_CONFIG", (root / "config.json").string());
+  if (!std::getenv("AUTOSCAN_FAULT_CONFIG"))
+    std::ofstream(config) << R"({"scanner": {"width": 96, "height": 72, "noise": {"magnitude": 0.5}},
     "session": {"poisson": {"depth": 5}, "max_views": 5, "max_iterations": 4,
                 "nbv": {"grid_resolution": 30, "max_views": 3},
                 "confidence": {"iso": {"count": 1500}, "k": 30},
@@ -224,9 +240,12 @@ TEST(FaultInjection, SimulateKilledAtRandomMomentsResumesBitIdentical) {
     "blind": {"views": 4, "elevations_deg": [20.0]}, "eval": {"samples": 5000}, "checkpoints": [2],
     "scannable_options": {"surface_views": 40, "sphere_views": 12, "resolution_divisor": 1},
     "report": false})";
+  const std::vector<std::string> extra = split_words(env_or("AUTOSCAN_FAULT_ARGS", ""));
   auto start_args = [&](const fs::path& out) {
-    return std::vector<std::string>{"--json",   "simulate",      "--mesh", mesh.string(),
-                                    "--config", config.string(), "--out",  out.string()};
+    std::vector<std::string> a{"--json",   "simulate",      "--mesh", mesh.string(),
+                               "--config", config.string(), "--out",  out.string()};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
   };
 
   const fs::path full = root / "full";
@@ -256,7 +275,10 @@ TEST(FaultInjection, SimulateKilledAtRandomMomentsResumesBitIdentical) {
     const bool resumable = fs::exists(cut / "simulation.json");
     std::vector<std::string> resume_args = {"--json", "simulate", "--resume", "--out", cut.string()};
     if (t % 2 == 1)  // the options the run was started with are accepted (the mesh compared by content)
+    {
       resume_args.insert(resume_args.end(), {"--mesh", mesh.string(), "--config", config.string()});
+      resume_args.insert(resume_args.end(), extra.begin(), extra.end());
+    }
     const int code = resumable ? wait_exit(spawn(resume_args, result)) : wait_exit(spawn(start_args(cut), result));
     ASSERT_EQ(code, 0) << "trial " << t << ": killed at " << at << " s (" << phase << "), then the "
                        << (resumable ? "resume" : "new run") << " failed";
