@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <optional>
 #include <regex>
 #include <set>
@@ -142,6 +143,19 @@ json truth_figures(const TriangleMesh& recon, const PointCloud& raw, const Trian
   }
   t["tau"] = options.tau;
   return t;
+}
+
+void add_gauge_free_figures(const TriangleMesh& recon, const Eigen::Isometry3d& gauge, const TriangleMesh& truth,
+                            const eval::EvalOptions& options, json& t) {
+  if (recon.empty()) return;
+  TriangleMesh moved = recon;
+  for (auto& v : moved.vertices) v = gauge * v;
+  const auto r = eval::evaluate_mesh(moved, truth, options);
+  t["accuracy_mean_fit"] = r.accuracy.mean;
+  t["accuracy_p90_fit"] = r.accuracy.p90;
+  t["fscore_fit"] = r.fscore;
+  t["gauge_translation"] = gauge.translation().norm();
+  t["gauge_rotation_deg"] = Eigen::AngleAxisd(gauge.linear()).angle() * 180.0 / std::numbers::pi;
 }
 
 namespace {
@@ -434,8 +448,9 @@ class Loop {
   }
 
   // "after" of every recorded scan with the session's current corrections; returns the means over
-  // the scans in the model {before, after, scans}.
-  json refresh_registration_errors(const session::Session& s) {
+  // the scans in the model {before, after, scans}. `gauge` (when given) gets the rigid motion that
+  // best fits the registered probes to their true places (identity with fewer than 3 probes).
+  json refresh_registration_errors(const session::Session& s, Eigen::Isometry3d* gauge = nullptr) {
     double b = 0, a = 0;
     int n = 0;
     // Also after the one rigid motion that best fits all registered probes to their true places
@@ -468,7 +483,8 @@ class Loop {
       ++n;
     }
     write_text_atomic(dir_ / kRegistrationFile, registration_errors_.dump());
-    auto fitted = [&](const std::vector<Vec3>& from) {
+    auto fitted = [&](const std::vector<Vec3>& from, Eigen::Isometry3d* fit = nullptr) {
+      if (fit) *fit = Eigen::Isometry3d::Identity();
       if (from.size() < 3) return 0.0;
       Eigen::Matrix3Xd A(3, static_cast<Eigen::Index>(from.size())), B(3, static_cast<Eigen::Index>(from.size()));
       for (std::size_t k = 0; k < from.size(); ++k) {
@@ -476,6 +492,7 @@ class Loop {
         B.col(static_cast<Eigen::Index>(k)) = true_pts[k];
       }
       const Eigen::Isometry3d G(Eigen::Matrix4d(Eigen::umeyama(A, B, false)));
+      if (fit) *fit = G;
       double sum = 0.0;
       for (std::size_t k = 0; k < from.size(); ++k) sum += (G * from[k] - true_pts[k]).norm();
       return sum / static_cast<double>(from.size());
@@ -483,7 +500,7 @@ class Loop {
     return {{"before", n ? b / n : 0.0},
             {"after", n ? a / n : 0.0},
             {"before_fit", fitted(rep_pts)},
-            {"after_fit", fitted(reg_pts)},
+            {"after_fit", fitted(reg_pts, gauge)},
             {"scans", n}};
   }
 
@@ -526,9 +543,11 @@ class Loop {
     t["views_taken"] = views_done(s);
     if (!opts_.rig.fixtures.empty()) t["fixture_points_in_model"] = count_fixture_points(s.model_points(), opts_.rig);
     if (!registration_errors_.empty()) {
-      const json e = refresh_registration_errors(s);
+      Eigen::Isometry3d gauge;
+      const json e = refresh_registration_errors(s, &gauge);
       t["registration_error_before"] = e["before"];
       t["registration_error_after"] = e["after"];
+      add_gauge_free_figures(*mesh, gauge, truth_, opts_.eval, t);
     }
     s.attach_truth(last.index, t);
     record_checkpoint(views_done(s), t, last.mean_f);

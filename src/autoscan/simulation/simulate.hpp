@@ -10,6 +10,7 @@
 // drive it, for --resume) and truth.ply (the normalised truth mesh). Resumable after a crash at any
 // moment: every scan is deterministic in (seed, scan id), so resume() re-derives what was done from
 // the session and continues; no acknowledged scan is lost or repeated.
+#include <Eigen/Geometry>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -158,5 +159,15 @@ bool is_recorded_truth(const std::filesystem::path& out, const TriangleMesh& mes
 nlohmann::json truth_figures(const TriangleMesh& recon, const PointCloud& raw_points, const TriangleMesh& truth,
                              const eval::EvalOptions& options, const PointCloud* reference = nullptr,
                              int color_neighbours = 8);
+
+/// The model's figures without the gauge (docs/benchmarks.md, "The gauge"): no registration places
+/// the whole model better than the robot's accuracy lets the priors fix the world frame (σ/√n), and
+/// that offset counts in accuracy_mean. Adds to `t` "accuracy_mean_fit", "accuracy_p90_fit" and
+/// "fscore_fit" (the mesh moved by `gauge` against the truth) and the gauge's size,
+/// "gauge_translation" and "gauge_rotation_deg". `simulate` passes the one rigid motion that best fits
+/// the registered scans' probes to their true places: from the scans, never from the mesh, so no
+/// shape error is fitted away.
+void add_gauge_free_figures(const TriangleMesh& recon, const Eigen::Isometry3d& gauge, const TriangleMesh& truth,
+                            const eval::EvalOptions& options, nlohmann::json& t);
 
 }  // namespace autoscan::simulation
