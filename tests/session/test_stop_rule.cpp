@@ -506,3 +506,81 @@ TEST(StopRuleRemaining, OldSessionJsonWithoutCertificateOpens) {
   fs::remove_all(test::fresh_dir("stop_old_json_other"));
   fs::remove_all(dir);
 }
+
+// The most accurate model by the session's own figures (StopOptions::best_rounds): the measured
+// sequences of docs/stop-rule.md, "The most accurate model" (noise 0.5, confident share and fit
+// residual in mm per iteration).
+TEST(StopRuleRemaining, TheMostAccurateModelIsFoundWithoutTheTruth) {
+  // homer: most accurate at iteration 2 (the truth: 0.705 mm, then 0.718, 0.710, 0.726): the
+  // residual is smallest there and iteration 3 is less complete (no candidate).
+  const std::vector<double> homer_conf = {0.6549, 0.9189, 0.9659, 0.9631, 0.9674};
+  const std::vector<double> homer_fit = {0.134, 0.121, 0.121, 0.125, 0.127};
+  auto h = best_by_fit(homer_conf, homer_fit, 0.002, 0.02);
+  EXPECT_EQ(h.best, 2);
+  EXPECT_EQ(h.after, 2);
+  // Without iteration 4 the best is still 2, one iteration back.
+  h = best_by_fit({homer_conf.begin(), homer_conf.end() - 1}, {homer_fit.begin(), homer_fit.end() - 1}, 0.002, 0.02);
+  EXPECT_EQ(h.best, 2);
+  EXPECT_EQ(h.after, 1);
+  // elk: the accuracy improves up to iteration 8 (0.899 mm) while the model is as complete from
+  // iteration 3 on; iteration 2's residual is the smallest but its model the less complete.
+  const std::vector<double> elk_conf = {0.6991, 0.8036, 0.8539, 0.8571, 0.8570, 0.8587,
+                                        0.8586, 0.8597, 0.8626, 0.8590, 0.8614};
+  const std::vector<double> elk_fit = {0.179, 0.215, 0.260, 0.279, 0.284, 0.275, 0.279, 0.273, 0.266, 0.274, 0.276};
+  for (std::size_t n = 3; n <= 8; ++n) {  // the latest complete model is (within tolerance) the best
+    const auto e = best_by_fit({elk_conf.begin(), elk_conf.begin() + static_cast<long>(n + 1)},
+                               {elk_fit.begin(), elk_fit.begin() + static_cast<long>(n + 1)}, 0.002, 0.02);
+    EXPECT_EQ(e.after, 0) << n;
+  }
+  const auto e = best_by_fit(elk_conf, elk_fit, 0.002, 0.02);
+  EXPECT_EQ(e.best, 8);
+  EXPECT_EQ(e.after, 2);
+  // Without certificates: no candidate.
+  EXPECT_EQ(best_by_fit({0.9, 0.9}, {0.0, 0.0}, 0.002, 0.02).best, -1);
+}
+
+namespace {
+// The patch reconstructor (patch f 0.05) with the consolidated points `thickness[call]` above and
+// below the square in turn: the certificate's fit residual is that thickness.
+Reconstructor thick_reconstructor(std::vector<double> thickness, std::shared_ptr<int> calls) {
+  return [thickness, calls](const PointCloud& raw, const SessionOptions& so, const ProgressCallback& p) {
+    const double t = thickness[std::min<std::size_t>(static_cast<std::size_t>(*calls), thickness.size() - 1)];
+    ++*calls;
+    auto r = patch_reconstructor({0.05}, std::make_shared<int>(0))(raw, so, p);
+    for (std::size_t i = 0; i < r.consolidated.size(); ++i) r.consolidated.positions[i].z() = i % 2 ? t : -t;
+    return r;
+  };
+}
+}  // namespace
+
+TEST(StopRuleRemaining, ASessionStopsTwoIterationsAfterItsMostAccurateModelAndReturnsIt) {
+  const auto dir = test::fresh_dir("stop_past_best");
+  auto o = test::test_options();
+  o.stop.rule = StopRule::remaining;
+  o.stop.stalled_rounds = 100;     // the patch never improves: only past_best may stop the session
+  o.stop.quality_by_truth = true;  // and the truth's rising F-score does not move its result
+  o.register_scans = false;        // the patch is no model of the sphere scans
+  o.max_iterations = 10;
+  auto s = Session::create(dir, noisy_scanner(), Rig{}, o);
+  s.set_reconstructor(thick_reconstructor({0.004, 0.002, 0.003, 0.0025, 0.001}, std::make_shared<int>(0)));
+  s.add_scan(test::sphere_scan(Vec3(1, 0, 0), 500, 1), Pose::look_at(Vec3(1.2, 0, 0), Vec3::Zero()));
+  auto step = s.next_views(Pose::look_at(Vec3(1.2, 0, 0.3), Vec3::Zero()));
+  for (int k = 0; !step.stopped && k < 6; ++k) {
+    s.attach_truth(k, {{"fscore", 0.8 + 0.01 * k}});
+    ASSERT_FALSE(step.views.empty());
+    for (const auto& v : step.views) s.add_scan(test::sphere_scan(v.pose.position, 500, 50 + k), v.pose);
+    step = s.next_views(step.views.back().pose);
+  }
+  ASSERT_TRUE(step.stopped);
+  EXPECT_EQ(step.reason, "past_best");
+  EXPECT_EQ(step.iteration, 3);  // iterations 2 and 3 came after the thinnest points (iteration 1)
+  EXPECT_NEAR(s.iterations()[1].certificate["fit_residual"].get<double>(), 0.002, 1e-9);
+  EXPECT_EQ(s.best_iteration(), 1);
+  s.attach_truth(3, {{"fscore", 0.95}});
+  EXPECT_EQ(s.best_iteration(), 1);
+  { const Session closing = std::move(s); }  // releases the directory's lock
+  auto reopened = Session::open(dir);
+  EXPECT_EQ(reopened.best_iteration(), 1);
+  EXPECT_EQ(reopened.status().stop_reason, "past_best");
+  fs::remove_all(dir);
+}

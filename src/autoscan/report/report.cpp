@@ -433,6 +433,9 @@ std::string stop_meaning(const std::string& reason) {
       {"complete", "what views can still improve is below the remaining share of the surface"},
       {"no_improvement", "views stopped improving the low-confidence regions they looked at"},
       {"quality_fell", "the mean confidence fell below the best iteration's; the result is the best iteration"},
+      {"past_best",
+       "more scans no longer made the model more accurate (its points thickened); the result is its most accurate "
+       "iteration"},
       {"quality_fell_truth", "the F-score against the truth fell; the result is the best iteration"},
       {"converged", "the mean confidence stopped changing (the paper's rule)"},
       {"confidence_fell", "the mean confidence fell (the paper's rule)"},

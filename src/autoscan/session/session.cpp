@@ -296,6 +296,28 @@ int best_by_confidence(const std::vector<double>& mean_f, double tolerance) {
   return -1;
 }
 
+AccuracyBest best_by_fit(const std::vector<double>& share_confident, const std::vector<double>& fit_residual,
+                         double complete_tolerance, double accuracy_tolerance) {
+  AccuracyBest out;
+  const std::size_t n = std::min(share_confident.size(), fit_residual.size());
+  double top = -1.0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (fit_residual[i] > 0.0) top = std::max(top, share_confident[i]);
+  auto candidate = [&](std::size_t i) {
+    return fit_residual[i] > 0.0 && share_confident[i] >= top - complete_tolerance;
+  };
+  double least = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i)
+    if (candidate(i)) least = std::min(least, fit_residual[i]);
+  for (std::size_t i = n; i-- > 0;)
+    if (candidate(i) && fit_residual[i] <= least * (1.0 + accuracy_tolerance)) {
+      out.best = static_cast<int>(i);
+      out.after = static_cast<int>(share_confident.size()) - 1 - out.best;
+      break;
+    }
+  return out;
+}
+
 std::string remaining_rule(const Certificate& certificate, double mean_f, std::optional<double> best_previous_mean_f,
                            const StopOptions& options) {
   // Quality fell: worse than the best iteration beyond the noise of the measure. Stop at once; the
@@ -705,8 +727,27 @@ struct Session::Impl {
 
   bool has_model() const { return !iterations.empty() && !target.empty(); }
 
+  // Per iteration: the certificate's confident share and fit residual (0 without a certificate).
+  std::pair<std::vector<double>, std::vector<double>> accuracy_figures() const {
+    std::vector<double> conf, fit;
+    for (const auto& it : iterations) {
+      const bool c = it.certificate.is_object();
+      conf.push_back(c ? it.certificate.value("share_confident", 0.0) : 0.0);
+      fit.push_back(c ? it.certificate.value("fit_residual", 0.0) : 0.0);
+    }
+    return {conf, fit};
+  }
+
   void update_best() {
     if (best_fixed) return;
+    if (stopped && stop_reason == "past_best") {  // the most accurate model, by the session's own figures
+      const auto [conf, fit] = accuracy_figures();
+      const int b = best_by_fit(conf, fit, options.stop.complete_tolerance, options.stop.accuracy_tolerance).best;
+      if (b >= 0) {
+        best_iteration = b;
+        return;
+      }
+    }
     if (options.stop.quality_by_truth) {
       // The driver knows the truth: the latest iteration whose F-score is within the tolerance of the
       // best one's (iterations without truth figures yet are not candidates).
@@ -1195,6 +1236,21 @@ struct Session::Impl {
       std::optional<double> best_before;
       for (const auto& prev : iterations) best_before = std::max(best_before.value_or(prev.mean_f), prev.mean_f);
       reason = remaining_rule(cert, rec.mean_f, best_before, options.stop);
+      // The most accurate model lies best_rounds iterations back: stop, it is the result. Checked
+      // before "complete" so that the result is that model, not this one.
+      if ((reason.empty() || reason == "complete") && options.stop.best_rounds > 0) {
+        auto [conf, fit] = accuracy_figures();
+        conf.push_back(cert.share_confident);
+        fit.push_back(cert.fit_residual);
+        const AccuracyBest b = best_by_fit(conf, fit, options.stop.complete_tolerance, options.stop.accuracy_tolerance);
+        if (b.best >= 0 && b.after >= options.stop.best_rounds) {
+          log::info(
+              "iteration {}: the model was most accurate at iteration {} (fit residual {:.3g} against {:.3g} now): "
+              "stop, the result is iteration {} (past_best)",
+              k, b.best, fit[static_cast<std::size_t>(b.best)], cert.fit_residual, b.best);
+          reason = "past_best";
+        }
+      }
     }
     if (reason.empty() && k + 1 >= options.max_iterations)
       reason = "max_iterations";
@@ -1343,6 +1399,8 @@ struct Session::Impl {
     stop_reason = std::move(stored.stop_reason);
     iterations = std::move(stored.iterations);
     best_iteration = stored.best_iteration;
+    // finish() named the result: the truth's later figures do not move it, after a resume as before.
+    best_fixed = stopped && stop_reason == "quality_fell_truth";
     if (best_iteration < 0) update_best();  // a session written before the field
     make_planner_object();
     // What the planner fixed at an earlier plan() (an occupancy grid's frame), before the replay.

@@ -285,6 +285,18 @@ bool confidence_converged(double previous_mean_f, double mean_f, double threshol
 /// highest (-1 for none).
 int best_by_confidence(const std::vector<double>& mean_f, double tolerance);
 
+/// The most accurate iteration by the model's own figures (StopOptions::best_rounds, docs/stop-rule.md):
+/// among the iterations whose confident share is within `complete_tolerance` of the largest, the
+/// latest whose fit residual is within `accuracy_tolerance` (a share) of the smallest. Iterations
+/// with a residual of 0 or less (no certificate) are not candidates. `after` counts the iterations
+/// that came after it; best is -1 (after 0) for none.
+struct AccuracyBest {
+  int best = -1;
+  int after = 0;
+};
+AccuracyBest best_by_fit(const std::vector<double>& share_confident, const std::vector<double>& fit_residual,
+                         double complete_tolerance, double accuracy_tolerance);
+
 /// The rule "remaining" on its own (SessionOptions::stop, docs/stop-rule.md): "quality_fell",
 /// "complete", "no_improvement" or "" (continue), from the certificate of this iteration, its mean
 /// f and the best mean f before it (none for the first iteration).
