@@ -535,6 +535,17 @@ TEST(StopRuleRemaining, TheMostAccurateModelIsFoundWithoutTheTruth) {
   const auto e = best_by_fit(elk_conf, elk_fit, 0.002, 0.02);
   EXPECT_EQ(e.best, 8);
   EXPECT_EQ(e.after, 2);
+  // The default tolerance, 0: the smallest residual. elk's shorter run stopped "complete" at
+  // iteration 4 (accuracy 1.212 mm) with iteration 3 the most accurate (1.127 mm): residuals 0.275
+  // and 0.279, 1.5 % apart. With 0.02 the later one was the result; with 0 it is iteration 3.
+  const std::vector<double> elk_short_conf = {0.6991, 0.8036, 0.8539, 0.8574, 0.8556};
+  const std::vector<double> elk_short_fit = {0.179, 0.215, 0.260, 0.275, 0.279};
+  EXPECT_EQ(best_by_fit(elk_short_conf, elk_short_fit, 0.002, 0.02).best, 4);
+  const auto es = best_by_fit(elk_short_conf, elk_short_fit, 0.002, StopOptions{}.accuracy_tolerance);
+  EXPECT_EQ(es.best, 3);
+  EXPECT_EQ(es.after, 1);
+  EXPECT_EQ(best_by_fit(elk_conf, elk_fit, 0.002, 0.0).best, 8);
+  EXPECT_EQ(best_by_fit(homer_conf, homer_fit, 0.002, 0.0).best, 2);
   // Without certificates: no candidate.
   EXPECT_EQ(best_by_fit({0.9, 0.9}, {0.0, 0.0}, 0.002, 0.02).best, -1);
 }

@@ -108,9 +108,12 @@ struct StopOptions {
   /// thicken), compared only among iterations whose confident share is within complete_tolerance
   /// of the largest so far (a less complete model is not a candidate, however thin its points). The
   /// best is the latest candidate whose residual is within accuracy_tolerance (a share) of the
-  /// smallest. Stop when best_rounds iterations came after it: the best is the result. 0 disables it.
+  /// smallest. Stop when best_rounds iterations came after it. The best is the session's result
+  /// (best_iteration) whatever stops it, except "quality_fell". 0 disables both.
   int best_rounds = 2;
-  double accuracy_tolerance = 0.02;   ///< see best_rounds (the residual's sampling noise is about 0.5 %)
+  /// See best_rounds. 0: the smallest residual (with 0.02, elk at noise 0.5 returned the later of two
+  /// iterations 1.5 % apart in residual and 7.5 % apart in accuracy, the worse one).
+  double accuracy_tolerance = 0.0;
   double complete_tolerance = 0.002;  ///< see best_rounds (a share of the surface)
 
   template <class V>

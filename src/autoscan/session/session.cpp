@@ -740,7 +740,11 @@ struct Session::Impl {
 
   void update_best() {
     if (best_fixed) return;
-    if (stopped && stop_reason == "past_best") {  // the most accurate model, by the session's own figures
+    // The most accurate model by the session's own figures (StopOptions::best_rounds): the result
+    // whatever stopped the session, except a fall of the mean confidence (its own best), and before
+    // any truth a driver attaches (docs/stop-rule.md, "The most accurate model").
+    if (options.stop.rule == StopRule::remaining && options.stop.best_rounds > 0 &&
+        !(stopped && stop_reason == "quality_fell")) {
       const auto [conf, fit] = accuracy_figures();
       const int b = best_by_fit(conf, fit, options.stop.complete_tolerance, options.stop.accuracy_tolerance).best;
       if (b >= 0) {
