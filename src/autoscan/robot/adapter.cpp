@@ -1,7 +1,5 @@
 #include "autoscan/robot/adapter.hpp"
 
-#include <cmath>
-
 #include "autoscan/core/error.hpp"
 
 namespace autoscan::robot {

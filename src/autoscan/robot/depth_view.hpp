@@ -15,7 +15,6 @@
 //   // takes world-frame points: transform them by the pose first).
 #include <cstdint>
 #include <limits>
-#include <span>
 #include <string>
 #include <vector>
 

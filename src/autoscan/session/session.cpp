@@ -312,7 +312,7 @@ AccuracyBest best_by_fit(const std::vector<double>& share_confident, const std::
   for (std::size_t i = n; i-- > 0;)
     if (candidate(i) && fit_residual[i] <= least * (1.0 + accuracy_tolerance)) {
       out.best = static_cast<int>(i);
-      out.after = static_cast<int>(share_confident.size()) - 1 - out.best;
+      out.after = static_cast<int>(n) - 1 - out.best;
       break;
     }
   return out;
@@ -727,15 +727,20 @@ struct Session::Impl {
 
   bool has_model() const { return !iterations.empty() && !target.empty(); }
 
-  // Per iteration: the certificate's confident share and fit residual (0 without a certificate).
-  std::pair<std::vector<double>, std::vector<double>> accuracy_figures() const {
+  // The most accurate iteration by the certificates' confident share and fit residual (0 without a
+  // certificate: no candidate), with `pending` as one more iteration after the recorded ones.
+  AccuracyBest accuracy_best(const Certificate* pending = nullptr) const {
     std::vector<double> conf, fit;
     for (const auto& it : iterations) {
       const bool c = it.certificate.is_object();
       conf.push_back(c ? it.certificate.value("share_confident", 0.0) : 0.0);
       fit.push_back(c ? it.certificate.value("fit_residual", 0.0) : 0.0);
     }
-    return {conf, fit};
+    if (pending) {
+      conf.push_back(pending->share_confident);
+      fit.push_back(pending->fit_residual);
+    }
+    return best_by_fit(conf, fit, options.stop.complete_tolerance, options.stop.accuracy_tolerance);
   }
 
   void update_best() {
@@ -745,9 +750,7 @@ struct Session::Impl {
     // any truth a driver attaches (docs/stop-rule.md, "The most accurate model").
     if (options.stop.rule == StopRule::remaining && options.stop.best_rounds > 0 &&
         !(stopped && stop_reason == "quality_fell")) {
-      const auto [conf, fit] = accuracy_figures();
-      const int b = best_by_fit(conf, fit, options.stop.complete_tolerance, options.stop.accuracy_tolerance).best;
-      if (b >= 0) {
+      if (const int b = accuracy_best().best; b >= 0) {
         best_iteration = b;
         return;
       }
@@ -1243,15 +1246,13 @@ struct Session::Impl {
       // The most accurate model lies best_rounds iterations back: stop, it is the result. Checked
       // before "complete" so that the result is that model, not this one.
       if ((reason.empty() || reason == "complete") && options.stop.best_rounds > 0) {
-        auto [conf, fit] = accuracy_figures();
-        conf.push_back(cert.share_confident);
-        fit.push_back(cert.fit_residual);
-        const AccuracyBest b = best_by_fit(conf, fit, options.stop.complete_tolerance, options.stop.accuracy_tolerance);
+        const AccuracyBest b = accuracy_best(&cert);
         if (b.best >= 0 && b.after >= options.stop.best_rounds) {
           log::info(
               "iteration {}: the model was most accurate at iteration {} (fit residual {:.3g} against {:.3g} now): "
               "stop, the result is iteration {} (past_best)",
-              k, b.best, fit[static_cast<std::size_t>(b.best)], cert.fit_residual, b.best);
+              k, b.best, iterations[static_cast<std::size_t>(b.best)].certificate.value("fit_residual", 0.0),
+              cert.fit_residual, b.best);
           reason = "past_best";
         }
       }
