@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 
+#include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
 #include "autoscan/robot/adapter.hpp"
 #include "session/session_fixtures.hpp"
@@ -90,4 +91,43 @@ TEST(RobotAdapter, DepthImagesLandOnTheObjectInTheWorldFrameAndViewsComeBack) {
   { Adapter closing = std::move(b); }
   EXPECT_EQ(Adapter::open(dir).session().scans().size(), 0u);
   fs::remove_all(dir);
+}
+
+// A node's config: the three parts read from a config file or from a session's own session.json (a
+// new session like that one); unknown fields and bad values are refused, naming the file.
+TEST(RobotAdapter, SettingsComeFromAConfigOrFromASessionJson) {
+  const auto s = settings_from_json(nlohmann::json::parse(
+                                        R"({"scanner": {"far": 1.2, "fov_deg": 40}, "rig": {"kind": "free"},
+                                            "session": {"max_views": 7, "seed": 3}})"),
+                                    "node.json");
+  EXPECT_DOUBLE_EQ(s.scanner.far, 1.2);
+  EXPECT_DOUBLE_EQ(s.scanner.fov_deg, 40.0);
+  EXPECT_EQ(s.options.max_views, 7);
+  EXPECT_EQ(s.options.seed, 3u);
+  EXPECT_EQ(settings_from_json(nlohmann::json::object()).options.max_views, session::SessionOptions{}.max_views);
+
+  const fs::path dir = fs::temp_directory_path() / "autoscan_robot_settings";
+  fs::remove_all(dir);
+  {
+    ScannerSpec scanner;
+    scanner.far = 1.7;
+    session::SessionOptions o;
+    o.max_views = 11;
+    auto a = Adapter::create(dir, scanner, Rig{}, o);
+  }
+  const auto j = nlohmann::json::parse(read_text_file(dir / "session.json"));
+  const auto like = settings_from_json(j, "session.json");
+  EXPECT_DOUBLE_EQ(like.scanner.far, 1.7);
+  EXPECT_EQ(like.options.max_views, 11);
+  fs::remove_all(dir);
+
+  EXPECT_THROW(settings_from_json(nlohmann::json::parse(R"({"scaner": {}})"), "node.json"), InputError);
+  EXPECT_THROW(settings_from_json(nlohmann::json::parse(R"({"session": {"max_views": -1}})"), "node.json"), InputError);
+  EXPECT_THROW(settings_from_json(nlohmann::json::parse("[1]"), "node.json"), InputError);
+  try {
+    settings_from_json(nlohmann::json::parse(R"({"scaner": {}})"), "node.json");
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("node.json"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("scaner"), std::string::npos);
+  }
 }

@@ -18,6 +18,26 @@ Pose pose_from_isometry(const Eigen::Isometry3d& T, const std::string& what) {
   return p;
 }
 
+SessionSettings settings_from_json(const nlohmann::json& j, const std::string& what) {
+  AUTOSCAN_REQUIRE(j.is_object(), "{}: expected a JSON object with scanner, rig and session", what);
+  const bool session_file = j.value("format", std::string()) == "autoscan-session";
+  if (!session_file)
+    for (const auto& [key, value] : j.items())
+      AUTOSCAN_REQUIRE(key == "scanner" || key == "rig" || key == "session" || key == "params",
+                       "{}: unknown field '{}' (expected scanner, rig, session)", what, key);
+  AUTOSCAN_REQUIRE(!(j.contains("session") && j.contains("params")), "{}: both 'session' and 'params' given", what);
+  SessionSettings s;
+  if (j.contains("scanner")) s.scanner = scanner_from_json(j.at("scanner"), what + ": scanner");
+  if (j.contains("rig")) s.rig = rig_from_json(j.at("rig"), what + ": rig");
+  for (const char* key : {"session", "params"})
+    if (j.contains(key))
+      s.options = session::session_options_from_json(
+          session_file ? session::without_legacy_options(j.at(key)) : j.at(key), {}, what + ": " + key);
+  s.scanner.validate(what + ": scanner");
+  s.rig.validate(what + ": rig");
+  return s;
+}
+
 Adapter::Adapter(session::Session s, const DepthToPointsOptions& depth)
     : session_(std::make_unique<session::Session>(std::move(s))), depth_(depth) {}
 

@@ -11,6 +11,8 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
 
 #include "autoscan/core/point_cloud.hpp"
 #include "autoscan/core/pose.hpp"
@@ -25,10 +27,28 @@ namespace autoscan::robot {
 /// non-finite transform.
 Pose pose_from_isometry(const Eigen::Isometry3d& world_from_sensor, const std::string& what = "sensor pose");
 
+/// What a new session is created with: its scanner, rig and options. A ROS node's `config` parameter
+/// (docs/ros.md) is read into this.
+struct SessionSettings {
+  ScannerSpec scanner;
+  Rig rig;
+  session::SessionOptions options;
+};
+/// Reads a JSON object with optional "scanner" (core/scanner_spec.hpp), "rig" (core/rig.hpp) and
+/// "session" or "params" (the session's options, docs/options.md); a session's own session.json
+/// (format "autoscan-session") is accepted too, and its other fields are ignored: a new session
+/// like that one. Fields left out keep their defaults. Throws InputError naming `what` for an
+/// unknown field or a bad value.
+SessionSettings settings_from_json(const nlohmann::json& j, const std::string& what = "config");
+
 class Adapter {
  public:
   static Adapter create(const std::filesystem::path& dir, const ScannerSpec& scanner, const Rig& rig,
                         const session::SessionOptions& options = {}, const DepthToPointsOptions& depth = {});
+  static Adapter create(const std::filesystem::path& dir, const SessionSettings& settings,
+                        const DepthToPointsOptions& depth = {}) {
+    return create(dir, settings.scanner, settings.rig, settings.options, depth);
+  }
   static Adapter open(const std::filesystem::path& dir, const DepthToPointsOptions& depth = {});
 
   /// One scan: `points` (normals optional) in the sensor's optical frame, `world_from_sensor` where

@@ -190,10 +190,7 @@ class Loop {
  public:
   Loop(const fs::path& dir, TriangleMesh truth, SimulateOptions opts, const ProgressCallback& progress)
       : dir_(dir), truth_(std::move(truth)), opts_(std::move(opts)), progress_(progress) {
-    scanner::VirtualScannerOptions so;
-    so.rig = opts_.rig;
-    so.fixtures = fixture_meshes(opts_.rig);
-    scanner_ = std::make_unique<scanner::VirtualScanner>(truth_, opts_.scanner, so);
+    scanner_ = make_virtual_scanner(truth_, opts_);
     if (fs::exists(dir_ / kFixtureFile)) {
       auto j = json::parse(read_text_file(dir_ / kFixtureFile), nullptr, false);
       AUTOSCAN_REQUIRE(!j.is_discarded() && j.is_object(), "{}: corrupt file", (dir_ / kFixtureFile).string());
@@ -516,10 +513,9 @@ class Loop {
     // A scene's blind ring drives up to the buildings (the operator sees them): the truth's ray scene.
     std::optional<spatial::RayScene> buildings;
     if (!opts_.scene.empty()) buildings.emplace(truth_);
-    const auto poses =
-        opts_.scene.empty()
-            ? scanner::blind_scan_poses(truth_.bounds(), opts_.scanner, opts_.blind.seeded(opts_.session.seed))
-            : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig, opts_.blind.views, &*buildings);
+    const auto poses = opts_.scene.empty() ? object_blind_poses(truth_, opts_)
+                                           : scene_blind_poses(truth_.bounds(), opts_.scanner, opts_.rig,
+                                                               opts_.blind.views, &*buildings);
     for (std::size_t i = 0; i < poses.size(); ++i) {
       const bool done = std::any_of(s.scans().begin(), s.scans().end(), [&](const session::ScanRecord& r) {
         return same_position(r.reported_pose, poses[i]);
@@ -749,6 +745,28 @@ Rig session_rig(const SimulateOptions& o) {
 
 }  // namespace
 
+TriangleMesh prepared_truth(const TriangleMesh& mesh, const SimulateOptions& options) {
+  TriangleMesh truth = mesh;
+  if (options.normalize) normalize_to_benchmark_frame(truth);
+  rest_on_support(truth, options.rig);  // the object stands on its support (docs/supports.md)
+  paint_mesh(truth, paint_from_name(options.paint, "simulation: paint"));
+  return truth;
+}
+
+std::unique_ptr<scanner::VirtualScanner> make_virtual_scanner(const TriangleMesh& truth,
+                                                              const SimulateOptions& options) {
+  scanner::VirtualScannerOptions so;
+  so.rig = options.rig;
+  so.fixtures = fixture_meshes(options.rig);
+  return std::make_unique<scanner::VirtualScanner>(truth, options.scanner, so);
+}
+
+std::vector<Pose> object_blind_poses(const TriangleMesh& truth, const SimulateOptions& options) {
+  AUTOSCAN_REQUIRE(options.scene.empty(), "simulation: the blind poses of a scene ({}) come from its preset",
+                   options.scene);
+  return scanner::blind_scan_poses(truth.bounds(), options.scanner, options.blind.seeded(options.session.seed));
+}
+
 SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const SimulateOptions& options_in,
                         const ProgressCallback& progress, const std::string& source) {
   SimulateOptions options = options_in;
@@ -781,10 +799,7 @@ SimulateResult simulate(const TriangleMesh& truth_in, const fs::path& out, const
   std::error_code ec;
   AUTOSCAN_REQUIRE(!fs::exists(SessionLayout(out).session_json(), ec) && !fs::exists(out / kSimFile, ec),
                    "{}: already holds a simulation (use --resume to continue it, or another --out)", out.string());
-  TriangleMesh truth = truth_in;
-  if (options.normalize) normalize_to_benchmark_frame(truth);
-  rest_on_support(truth, options.rig);  // the object stands on its support (docs/supports.md)
-  paint_mesh(truth, paint_from_name(options.paint, "simulation: paint"));
+  TriangleMesh truth = prepared_truth(truth_in, options);
   remove_temporaries(out);
   fs::create_directories(out);
   // Double precision: resume() rebuilds the virtual scanner from this file, and a float-rounded mesh

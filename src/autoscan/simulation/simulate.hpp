@@ -12,6 +12,7 @@
 // the session and continues; no acknowledged scan is lost or repeated.
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -22,6 +23,7 @@
 #include "autoscan/core/scanner_spec.hpp"
 #include "autoscan/eval/metrics.hpp"
 #include "autoscan/scanner/blind_scan.hpp"
+#include "autoscan/scanner/virtual_scanner.hpp"
 #include "autoscan/session/options.hpp"
 #include "autoscan/simulation/scannable.hpp"
 
@@ -124,6 +126,19 @@ struct SimulateResult {
   double seconds = 0.0;
   nlohmann::json to_json() const;
 };
+
+/// The pieces of a run a driver of the virtual robot other than simulate() needs (the ROS simulated
+/// robot, ros/ and docs/ros.md), so that its scans are simulate()'s bit for bit:
+/// the truth as the run scans it: normalised (options.normalize), resting on the rig's support
+/// (docs/supports.md) and painted (options.paint); what simulate() writes as truth.ply.
+TriangleMesh prepared_truth(const TriangleMesh& mesh, const SimulateOptions& options);
+/// The run's virtual scanner on a prepared truth: options.scanner, the rig's reach and fixtures. A
+/// scan is deterministic in (scan id, options.session.seed), the id being the session's scan count.
+std::unique_ptr<scanner::VirtualScanner> make_virtual_scanner(const TriangleMesh& truth,
+                                                              const SimulateOptions& options);
+/// The blind scan's poses of an object run on a prepared truth (rings on a sphere, Figure 2(b);
+/// options.blind seeded by options.session.seed). Throws InputError for a scene run (options.scene).
+std::vector<Pose> object_blind_poses(const TriangleMesh& truth, const SimulateOptions& options);
 
 /// Runs the loop on `truth` (normalised first unless options.normalize is false) into `out`
 /// (created; must not hold a session already). Throws InputError for bad options or an empty mesh.

@@ -1,0 +1,315 @@
+// autoscan_node: the ROS 1 node over robot::Adapter (docs/ros.md, issue 46). One session directory
+// (the CLI's format: `autoscan session status|report DIR` work on it, and a node started on an
+// existing session resumes it). Scans come in as PointCloud2 (any frame; the sensor's pose from tf at
+// the message's stamp) or as depth images with their camera_info; views go out in the world frame,
+// optical convention (z forward, x right, y down; REP 103).
+//
+// Topics in:  input/points (sensor_msgs/PointCloud2), input/depth/image_rect (sensor_msgs/Image,
+//             16UC1 mm or 32FC1 m, REP 118) with input/depth/camera_info (the latest one is used),
+//             refused_view (geometry_msgs/PoseStamped: a view the robot could not take).
+// Topics out (latched): next_views (geometry_msgs/PoseArray, best first, ordered into a path),
+//             next_best_view (geometry_msgs/PoseStamped), views_path (nav_msgs/Path),
+//             model (sensor_msgs/PointCloud2, after each plan), status (std_msgs/String, JSON).
+// Services (std_srvs/Trigger): compute_next_views, capture (adds the latest scan when auto_capture
+//             is false), save (writes the report), reset (starts over, same settings).
+// Parameters (private): session_dir (required), config (JSON: scanner, rig, session; or a session's
+//             session.json), world_frame ("world"), sensor_frame ("": the cloud's or image's frame),
+//             auto_capture (true), tf_timeout (s, 0.5), float64_model (true).
+#include <fmt/format.h>
+#include <geometry_msgs/PoseArray.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <message_filters/subscriber.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <std_msgs/String.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "bridge.hpp"
+#include "conversions.hpp"
+
+using nlohmann::json;
+
+namespace autoscan_ros {
+
+class ScanNode {
+ public:
+  ScanNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+      : nh_(nh), listener_(tf_), cloud_filter_(cloud_sub_, tf_, "", 50, nh) {
+    std::string dir;
+    if (!pnh.getParam("session_dir", dir) || dir.empty()) throw InputError("autoscan_node: ~session_dir is not set");
+    pnh.param<std::string>("world_frame", world_frame_, "world");
+    pnh.param<std::string>("sensor_frame", sensor_frame_, "");
+    pnh.param("auto_capture", auto_capture_, true);
+    pnh.param("tf_timeout", tf_timeout_, 0.5);
+    pnh.param("float64_model", float64_model_, true);
+    std::string config;
+    pnh.param<std::string>("config", config, "");
+    core_ = std::make_unique<Core>(dir, config);
+
+    status_pub_ = nh_.advertise<std_msgs::String>("status", 10, true);
+    views_pub_ = nh_.advertise<geometry_msgs::PoseArray>("next_views", 1, true);
+    best_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("next_best_view", 1, true);
+    path_pub_ = nh_.advertise<nav_msgs::Path>("views_path", 1, true);
+    model_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("model", 1, true);
+
+    cloud_filter_.setTargetFrame(world_frame_);
+    cloud_filter_.setTolerance(ros::Duration(0.0));
+    cloud_sub_.subscribe(nh_, "input/points", 5);
+    cloud_filter_.registerCallback(&ScanNode::on_cloud, this);
+    cloud_filter_.registerFailureCallback(
+        [this](const sensor_msgs::PointCloud2ConstPtr& m, tf2_ros::filter_failure_reasons::FilterFailureReason r) {
+          refuse(fmt::format("cloud at {:.3f} in frame '{}': no transform to '{}' ({})", m->header.stamp.toSec(),
+                             m->header.frame_id, world_frame_, failure_text(r)));
+        });
+    depth_sub_ = nh_.subscribe("input/depth/image_rect", 2, &ScanNode::on_depth, this);
+    info_sub_ = nh_.subscribe("input/depth/camera_info", 2, &ScanNode::on_camera_info, this);
+    refused_sub_ = nh_.subscribe("refused_view", 10, &ScanNode::on_refused_view, this);
+
+    services_.push_back(nh_.advertiseService("compute_next_views", &ScanNode::on_compute, this));
+    services_.push_back(nh_.advertiseService("capture", &ScanNode::on_capture, this));
+    services_.push_back(nh_.advertiseService("save", &ScanNode::on_save, this));
+    services_.push_back(nh_.advertiseService("reset", &ScanNode::on_reset, this));
+    publish_status("ready");
+    ROS_INFO("autoscan_node: session %s, world frame '%s'", core_->status_json().c_str(), world_frame_.c_str());
+  }
+
+ private:
+  // A pending scan: points in the sensor's optical frame and where the sensor was.
+  struct Scan {
+    Points points;
+    Rigid world_from_sensor;
+    std::string source;
+  };
+
+  static const char* failure_text(tf2_ros::filter_failure_reasons::FilterFailureReason r) {
+    switch (r) {
+      case tf2_ros::filter_failure_reasons::OutTheBack:
+        return "the message is older than the transforms kept";
+      case tf2_ros::filter_failure_reasons::EmptyFrameID:
+        return "the message has no frame_id";
+      default:
+        return "the transform is missing";
+    }
+  }
+
+  // world <- frame at stamp; nullopt (and the reason refused) when tf cannot say.
+  std::optional<Rigid> lookup(const std::string& frame, const ros::Time& stamp, const std::string& what) {
+    try {
+      const auto t = tf_.lookupTransform(world_frame_, frame, stamp, ros::Duration(tf_timeout_));
+      return to_rigid(t.transform);
+    } catch (const tf2::TransformException& e) {
+      refuse(fmt::format("{}: no transform from '{}' to '{}' at {:.3f}: {}", what, frame, world_frame_, stamp.toSec(),
+                         e.what()));
+      return std::nullopt;
+    }
+  }
+
+  void on_cloud(const sensor_msgs::PointCloud2ConstPtr& msg) {
+    const std::string what = fmt::format("cloud at {:.3f}", msg->header.stamp.toSec());
+    try {
+      Points pts = from_cloud_msg(*msg, what);
+      if (pts.size() == 0) throw InputError(what + ": no finite point");
+      const auto world_from_cloud = lookup(msg->header.frame_id, msg->header.stamp, what);
+      if (!world_from_cloud) return;
+      const std::string sensor = sensor_frame_.empty() ? msg->header.frame_id : sensor_frame_;
+      Rigid world_from_sensor = *world_from_cloud;
+      if (sensor != msg->header.frame_id) {  // the cloud in another frame than the sensor's
+        const auto ws = lookup(sensor, msg->header.stamp, what);
+        if (!ws) return;
+        world_from_sensor = *ws;
+        pts = transformed(pts, compose(inverse(*ws), *world_from_cloud));
+      }
+      take({std::move(pts), world_from_sensor, what});
+    } catch (const InputError& e) {
+      refuse(e.what());
+    }
+  }
+
+  void on_camera_info(const sensor_msgs::CameraInfoConstPtr& msg) { camera_info_ = *msg; }
+
+  void on_depth(const sensor_msgs::ImageConstPtr& msg) {
+    const std::string what = fmt::format("depth image at {:.3f}", msg->header.stamp.toSec());
+    try {
+      if (!camera_info_)
+        throw InputError(fmt::format("{}: no camera_info received on {} yet", what, info_sub_.getTopic()));
+      const auto image = from_depth_msg(*msg, *camera_info_, what);
+      const auto ws = lookup(sensor_frame_.empty() ? msg->header.frame_id : sensor_frame_, msg->header.stamp, what);
+      if (!ws) return;
+      Points pts = depth_to_points(image, 0.0, 2.0 * core_->far(), what);
+      if (pts.size() == 0) throw InputError(what + ": no valid depth");
+      take({std::move(pts), *ws, what});
+    } catch (const InputError& e) {
+      refuse(e.what());
+    }
+  }
+
+  void take(Scan scan) {
+    if (!auto_capture_) {
+      latest_ = std::move(scan);
+      publish_status("scan_ready");
+      return;
+    }
+    integrate(scan);
+  }
+
+  bool integrate(const Scan& scan) {
+    try {
+      std::size_t inserted = 0;
+      const int id = core_->integrate(scan.points, scan.world_from_sensor, &inserted);
+      ROS_INFO("autoscan_node: %s: scan %d, %zu of %zu points inserted", scan.source.c_str(), id, inserted,
+               scan.points.size());
+      publish_status("scan_added");
+      return true;
+    } catch (const InputError& e) {
+      refuse(e.what());
+      return false;
+    }
+  }
+
+  void on_refused_view(const geometry_msgs::PoseStampedConstPtr& msg) {
+    try {
+      if (!msg->header.frame_id.empty() && msg->header.frame_id != world_frame_)
+        throw InputError(
+            fmt::format("refused_view: frame '{}' is not the world frame '{}'", msg->header.frame_id, world_frame_));
+      core_->refuse_view(to_rigid(msg->pose), "robot: could not take the view");
+      publish_status("view_refused");
+    } catch (const InputError& e) {
+      refuse(e.what());
+    }
+  }
+
+  bool on_compute(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    try {
+      const Plan step = core_->next_views();
+      publish_views(step);
+      publish_model();
+      const json j = {{"views", step.views.size()},
+                      {"iteration", step.iteration},
+                      {"done", step.done},
+                      {"stop_reason", step.reason},
+                      {"path_length", step.path_length}};
+      res.success = true;
+      res.message = j.dump();
+      publish_status(step.done ? "done" : "views");
+    } catch (const InputError& e) {
+      res.success = false;
+      res.message = e.what();
+      refuse(e.what());
+    }
+    return true;
+  }
+
+  bool on_capture(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    if (!latest_) {
+      res.success = false;
+      res.message = "capture: no scan received since the last capture";
+      return true;
+    }
+    res.success = integrate(*latest_);
+    res.message = res.success ? "scan added" : last_error_;
+    latest_.reset();
+    return true;
+  }
+
+  bool on_save(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    try {
+      res.message = core_->write_report();
+      res.success = true;
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = e.what();
+    }
+    return true;
+  }
+
+  bool on_reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    core_->reset();
+    latest_.reset();
+    res.success = true;
+    res.message = "session reset";
+    publish_status("reset");
+    return true;
+  }
+
+  void publish_views(const Plan& step) {
+    const ros::Time now = ros::Time::now();
+    geometry_msgs::PoseArray arr;
+    arr.header.frame_id = world_frame_;
+    arr.header.stamp = now;
+    nav_msgs::Path path;
+    path.header = arr.header;
+    for (const auto& v : step.views) {
+      arr.poses.push_back(to_pose_msg(v));
+      geometry_msgs::PoseStamped ps;
+      ps.header = arr.header;
+      ps.pose = arr.poses.back();
+      path.poses.push_back(ps);
+    }
+    views_pub_.publish(arr);
+    path_pub_.publish(path);
+    if (!path.poses.empty()) best_pub_.publish(path.poses.front());
+  }
+
+  void publish_model() {
+    if (model_pub_.getNumSubscribers() == 0) return;
+    auto msg = to_cloud_msg(core_->model_points(), world_frame_, float64_model_);
+    msg.header.stamp = ros::Time::now();
+    model_pub_.publish(msg);
+  }
+
+  void refuse(const std::string& why) {
+    ROS_ERROR("autoscan_node: %s (nothing added)", why.c_str());
+    last_error_ = why;
+    publish_status("refused");
+  }
+
+  void publish_status(const std::string& event) {
+    json j = json::parse(core_->status_json());
+    j["event"] = event;
+    j["refused_inputs"] = refused_inputs_;
+    if (event == "refused") {
+      ++refused_inputs_;
+      j["refused_inputs"] = refused_inputs_;
+      j["error"] = last_error_;
+    }
+    std_msgs::String m;
+    m.data = j.dump();
+    status_pub_.publish(m);
+  }
+
+  ros::NodeHandle nh_;
+  tf2_ros::Buffer tf_;
+  tf2_ros::TransformListener listener_;
+  message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
+  tf2_ros::MessageFilter<sensor_msgs::PointCloud2> cloud_filter_;
+  ros::Subscriber depth_sub_, info_sub_, refused_sub_;
+  ros::Publisher status_pub_, views_pub_, best_pub_, path_pub_, model_pub_;
+  std::vector<ros::ServiceServer> services_;
+  std::unique_ptr<Core> core_;
+  std::optional<sensor_msgs::CameraInfo> camera_info_;
+  std::optional<Scan> latest_;
+  std::string world_frame_, sensor_frame_, last_error_;
+  bool auto_capture_ = true, float64_model_ = true;
+  double tf_timeout_ = 0.5;
+  int refused_inputs_ = 0;
+};
+
+}  // namespace autoscan_ros
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "autoscan_node");
+  try {
+    autoscan_ros::ScanNode node(ros::NodeHandle(), ros::NodeHandle("~"));
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL("autoscan_node: %s", e.what());
+    return 1;
+  }
+  return 0;
+}
