@@ -74,17 +74,21 @@ auto guarded(F&& f) {
 Rigid compose(const Rigid& a, const Rigid& b) { return to_rigid(to_eigen(a) * to_eigen(b)); }
 Rigid inverse(const Rigid& a) { return to_rigid(to_eigen(a).inverse()); }
 
-Points transformed(const Points& p, const Rigid& r) {
-  const Eigen::Isometry3d T = to_eigen(r);
-  Points out = p;
-  for (auto& x : out.xyz) {
+// `T` applied to positions and normals in place (one Eigen product per point: simulate's arithmetic).
+static void apply(const Eigen::Isometry3d& T, Points& p) {
+  for (auto& x : p.xyz) {
     const Vec3 y = T * Vec3(x[0], x[1], x[2]);
     x = {y.x(), y.y(), y.z()};
   }
-  for (auto& n : out.normals) {
+  for (auto& n : p.normals) {
     const Vec3 m = T.linear() * Vec3(n[0], n[1], n[2]);
     n = {m.x(), m.y(), m.z()};
   }
+}
+
+Points transformed(const Points& p, const Rigid& r) {
+  Points out = p;
+  apply(to_eigen(r), out);
   return out;
 }
 
@@ -169,22 +173,21 @@ std::string Core::write_report() {
   });
 }
 
-std::string Core::status_json() const {
+nlohmann::json Core::status() const {
   const auto s = impl_->adapter->session().status();
-  const json j = {{"scans", s.scans},
-                  {"iterations", s.iterations},
-                  {"views_planned", s.views_planned},
-                  {"model_points", s.model_points},
-                  {"done", s.stopped},
-                  {"stop_reason", s.stop_reason},
-                  {"best_iteration", s.best_iteration},
-                  {"refused_views", s.refused_views},
-                  {"session_dir", s.directory.string()}};
-  return j.dump();
+  json j = {{"scans", s.scans},
+            {"iterations", s.iterations},
+            {"views_planned", s.views_planned},
+            {"model_points", s.model_points},
+            {"done", s.stopped},
+            {"stop_reason", s.stop_reason},
+            {"best_iteration", s.best_iteration},
+            {"refused_views", s.refused_views},
+            {"session_dir", s.directory.string()}};
+  return j;
 }
 
 Points Core::model_points() const { return to_points(impl_->adapter->session().model_points()); }
-double Core::near() const { return impl_->adapter->session().scanner().near; }
 double Core::far() const { return impl_->adapter->session().scanner().far; }
 
 struct SimScanner::Impl {
@@ -196,13 +199,9 @@ struct SimScanner::Impl {
 
   Points scan(const Pose& pose, int id) const {
     const auto r = scanner->scan(pose, static_cast<std::uint64_t>(id), options.session.seed);
-    const Eigen::Isometry3d sensor_from_world = pose.world_from_camera().inverse();
-    autoscan::PointCloud local;
-    local.positions.reserve(r.cloud.size());
-    for (const auto& p : r.cloud.positions) local.positions.push_back(sensor_from_world * p);
-    for (const auto& n : r.cloud.normals) local.normals.push_back(sensor_from_world.linear() * n);
-    local.colors = r.cloud.colors;
-    return to_points(local);
+    Points local = to_points(r.cloud);
+    apply(pose.world_from_camera().inverse(), local);
+    return local;
   }
 };
 

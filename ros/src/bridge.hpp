@@ -1,6 +1,6 @@
 #pragma once
 // The bridge between the ROS node (C++17: ROS 1's message headers do not compile as C++20) and the
-// library (C++20). This header includes neither ROS nor autoscan: plain types only. bridge.cpp is the
+// library (C++20). This header includes neither ROS nor autoscan: plain types (and JSON) only. bridge.cpp is the
 // ROS-free core a node is a thin layer over (robot::Adapter, the virtual scanner of simulate); a
 // ROS 2 node replaces node.cpp and conversions.cpp and keeps this (docs/ros.md, "ROS 2").
 //
@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -81,10 +82,9 @@ class Core {
   std::string write_report();
   /// Session::status() as JSON (scans, iterations, views_planned, model_points, done, stop_reason,
   /// best_iteration, refused_views, session_dir).
-  std::string status_json() const;
+  nlohmann::json status() const;
   Points model_points() const;
-  /// The scanner's working range [d_n, d_f] (for a depth image's valid depths).
-  double near() const;
+  /// The scanner's farthest working distance d_f (a depth image's valid depths reach 2 d_f).
   double far() const;
 
  private:

@@ -174,37 +174,36 @@ sensor_msgs::PointCloud2 to_cloud_msg(const Points& cloud, const std::string& fr
   return msg;
 }
 
-Rigid to_rigid(const geometry_msgs::Transform& t) {
-  return {{t.translation.x, t.translation.y, t.translation.z},
-          {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w}};
+// A Rigid <-> a point-like (x, y, z) and a quaternion-like (x, y, z, w) message: Transform's
+// translation / rotation and Pose's position / orientation are the same numbers.
+template <class Point, class Quat>
+Rigid rigid_of(const Point& t, const Quat& q) {
+  return {{t.x, t.y, t.z}, {q.x, q.y, q.z, q.w}};
 }
 
-Rigid to_rigid(const geometry_msgs::Pose& p) {
-  return {{p.position.x, p.position.y, p.position.z},
-          {p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w}};
+template <class Point, class Quat>
+void put_rigid(const Rigid& r, Point& t, Quat& q) {
+  t.x = r.t[0];
+  t.y = r.t[1];
+  t.z = r.t[2];
+  q.x = r.q[0];
+  q.y = r.q[1];
+  q.z = r.q[2];
+  q.w = r.q[3];
 }
+
+Rigid to_rigid(const geometry_msgs::Transform& t) { return rigid_of(t.translation, t.rotation); }
+Rigid to_rigid(const geometry_msgs::Pose& p) { return rigid_of(p.position, p.orientation); }
 
 geometry_msgs::Transform to_transform_msg(const Rigid& r) {
   geometry_msgs::Transform t;
-  t.translation.x = r.t[0];
-  t.translation.y = r.t[1];
-  t.translation.z = r.t[2];
-  t.rotation.x = r.q[0];
-  t.rotation.y = r.q[1];
-  t.rotation.z = r.q[2];
-  t.rotation.w = r.q[3];
+  put_rigid(r, t.translation, t.rotation);
   return t;
 }
 
 geometry_msgs::Pose to_pose_msg(const Rigid& r) {
   geometry_msgs::Pose p;
-  p.position.x = r.t[0];
-  p.position.y = r.t[1];
-  p.position.z = r.t[2];
-  p.orientation.x = r.q[0];
-  p.orientation.y = r.q[1];
-  p.orientation.z = r.q[2];
-  p.orientation.w = r.q[3];
+  put_rigid(r, p.position, p.orientation);
   return p;
 }
 

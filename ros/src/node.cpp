@@ -76,7 +76,7 @@ class ScanNode {
     services_.push_back(nh_.advertiseService("save", &ScanNode::on_save, this));
     services_.push_back(nh_.advertiseService("reset", &ScanNode::on_reset, this));
     publish_status("ready");
-    ROS_INFO("autoscan_node: session %s, world frame '%s'", core_->status_json().c_str(), world_frame_.c_str());
+    ROS_INFO("autoscan_node: session %s, world frame '%s'", core_->status().dump().c_str(), world_frame_.c_str());
   }
 
  private:
@@ -266,18 +266,15 @@ class ScanNode {
   void refuse(const std::string& why) {
     ROS_ERROR("autoscan_node: %s (nothing added)", why.c_str());
     last_error_ = why;
+    ++refused_inputs_;
     publish_status("refused");
   }
 
   void publish_status(const std::string& event) {
-    json j = json::parse(core_->status_json());
+    json j = core_->status();
     j["event"] = event;
     j["refused_inputs"] = refused_inputs_;
-    if (event == "refused") {
-      ++refused_inputs_;
-      j["refused_inputs"] = refused_inputs_;
-      j["error"] = last_error_;
-    }
+    if (event == "refused") j["error"] = last_error_;
     std_msgs::String m;
     m.data = j.dump();
     status_pub_.publish(m);
