@@ -14,11 +14,12 @@
 //             is false), save (writes the report), reset (starts over, same settings).
 // Parameters (private): session_dir (required), config (JSON: scanner, rig, session; or a session's
 //             session.json), world_frame ("world"), sensor_frame ("": the cloud's or image's frame),
-//             auto_capture (true), tf_timeout (s, 0.5), float64_model (true).
+//             auto_capture (true), tf_timeout (s, 0.5: a cloud or image whose transform has not come
+//             this long after it arrived is refused), float64_model (true), depth_min / depth_max
+//             (m, 0 / 0: depth pixels outside are invalid; depth_max 0 means twice the scanner's d_f).
 #include <fmt/format.h>
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/PoseStamped.h>
-#include <message_filters/subscriber.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <std_msgs/String.h>
@@ -26,6 +27,7 @@
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -39,8 +41,7 @@ namespace autoscan_ros {
 
 class ScanNode {
  public:
-  ScanNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-      : nh_(nh), listener_(tf_), cloud_filter_(cloud_sub_, tf_, "", 50, nh) {
+  ScanNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), listener_(tf_), cloud_filter_(tf_, "", 50, nh) {
     std::string dir;
     if (!pnh.getParam("session_dir", dir) || dir.empty()) throw InputError("autoscan_node: ~session_dir is not set");
     pnh.param<std::string>("world_frame", world_frame_, "world");
@@ -48,6 +49,11 @@ class ScanNode {
     pnh.param("auto_capture", auto_capture_, true);
     pnh.param("tf_timeout", tf_timeout_, 0.5);
     pnh.param("float64_model", float64_model_, true);
+    pnh.param("depth_min", depth_min_, 0.0);
+    pnh.param("depth_max", depth_max_, 0.0);
+    if (depth_min_ < 0 || depth_max_ < 0 || (depth_max_ > 0 && depth_max_ <= depth_min_))
+      throw InputError(fmt::format("autoscan_node: ~depth_min {} / ~depth_max {}: need 0 <= depth_min < depth_max",
+                                   depth_min_, depth_max_));
     std::string config;
     pnh.param<std::string>("config", config, "");
     core_ = std::make_unique<Core>(dir, config);
@@ -60,13 +66,19 @@ class ScanNode {
 
     cloud_filter_.setTargetFrame(world_frame_);
     cloud_filter_.setTolerance(ros::Duration(0.0));
-    cloud_sub_.subscribe(nh_, "input/points", 5);
-    cloud_filter_.registerCallback(&ScanNode::on_cloud, this);
+    // Clouds go through the tf message filter; every cloud is also kept in waiting_ so that one whose
+    // transform does not come within tf_timeout of its arrival is refused then (the filter itself would
+    // hold it until its queue overflows), and ignored if the filter delivers it later.
+    cloud_sub_ = nh_.subscribe("input/points", 5, &ScanNode::on_cloud_arrival, this);
+    cloud_filter_.registerCallback(&ScanNode::on_cloud_ready, this);
     cloud_filter_.registerFailureCallback(
         [this](const sensor_msgs::PointCloud2ConstPtr& m, tf2_ros::filter_failure_reasons::FilterFailureReason r) {
+          if (!waiting_.erase(m.get())) return;  // already refused by expire_waiting()
           refuse(fmt::format("cloud at {:.3f} in frame '{}': no transform to '{}' ({})", m->header.stamp.toSec(),
                              m->header.frame_id, world_frame_, failure_text(r)));
         });
+    expiry_timer_ =
+        nh_.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { expire_waiting(); });
     depth_sub_ = nh_.subscribe("input/depth/image_rect", 2, &ScanNode::on_depth, this);
     info_sub_ = nh_.subscribe("input/depth/camera_info", 2, &ScanNode::on_camera_info, this);
     refused_sub_ = nh_.subscribe("refused_view", 10, &ScanNode::on_refused_view, this);
@@ -110,6 +122,38 @@ class ScanNode {
     }
   }
 
+  // A cloud waiting for its transform: when it came, and what it is.
+  struct Waiting {
+    ros::WallTime arrived;
+    sensor_msgs::PointCloud2ConstPtr msg;
+  };
+
+  void on_cloud_arrival(const sensor_msgs::PointCloud2ConstPtr& msg) {
+    waiting_[msg.get()] = {ros::WallTime::now(), msg};
+    cloud_filter_.add(msg);
+  }
+
+  void on_cloud_ready(const sensor_msgs::PointCloud2ConstPtr& msg) {
+    if (!waiting_.erase(msg.get())) return;  // refused at tf_timeout; its transform came too late
+    on_cloud(msg);
+  }
+
+  // Refuses every cloud that has waited for its transform longer than tf_timeout (wall time).
+  void expire_waiting() {
+    const ros::WallTime now = ros::WallTime::now();
+    for (auto it = waiting_.begin(); it != waiting_.end();) {
+      if ((now - it->second.arrived).toSec() <= tf_timeout_) {
+        ++it;
+        continue;
+      }
+      const auto& h = it->second.msg->header;
+      const std::string why = fmt::format("cloud at {:.3f} in frame '{}': no transform to '{}' within tf_timeout {} s",
+                                          h.stamp.toSec(), h.frame_id, world_frame_, tf_timeout_);
+      it = waiting_.erase(it);
+      refuse(why);
+    }
+  }
+
   void on_cloud(const sensor_msgs::PointCloud2ConstPtr& msg) {
     const std::string what = fmt::format("cloud at {:.3f}", msg->header.stamp.toSec());
     try {
@@ -141,7 +185,7 @@ class ScanNode {
       const auto image = from_depth_msg(*msg, *camera_info_, what);
       const auto ws = lookup(sensor_frame_.empty() ? msg->header.frame_id : sensor_frame_, msg->header.stamp, what);
       if (!ws) return;
-      Points pts = depth_to_points(image, 0.0, 2.0 * core_->far(), what);
+      Points pts = depth_to_points(image, depth_min_, depth_max_ > 0 ? depth_max_ : 2.0 * core_->far(), what);
       if (pts.size() == 0) throw InputError(what + ": no valid depth");
       take({std::move(pts), *ws, what});
     } catch (const InputError& e) {
@@ -283,9 +327,10 @@ class ScanNode {
   ros::NodeHandle nh_;
   tf2_ros::Buffer tf_;
   tf2_ros::TransformListener listener_;
-  message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
   tf2_ros::MessageFilter<sensor_msgs::PointCloud2> cloud_filter_;
-  ros::Subscriber depth_sub_, info_sub_, refused_sub_;
+  std::map<const sensor_msgs::PointCloud2*, Waiting> waiting_;
+  ros::WallTimer expiry_timer_;
+  ros::Subscriber cloud_sub_, depth_sub_, info_sub_, refused_sub_;
   ros::Publisher status_pub_, views_pub_, best_pub_, path_pub_, model_pub_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<Core> core_;
@@ -293,7 +338,7 @@ class ScanNode {
   std::optional<Scan> latest_;
   std::string world_frame_, sensor_frame_, last_error_;
   bool auto_capture_ = true, float64_model_ = true;
-  double tf_timeout_ = 0.5;
+  double tf_timeout_ = 0.5, depth_min_ = 0.0, depth_max_ = 0.0;
   int refused_inputs_ = 0;
 };
 

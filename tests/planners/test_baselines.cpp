@@ -2,6 +2,7 @@
 // sphere whose top cap (z > 0.15, 60 degrees around the pole) was never seen.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -472,4 +473,44 @@ TEST(Baselines, FarthestLooksFromTheOtherSide) {
   EXPECT_LT(dots[0], -0.98);
   EXPECT_LT(std::abs(dots[1]), 0.2);
   for (const auto& v : out.views) EXPECT_NEAR(v.pose.position.norm(), d, 1e-9);
+}
+
+// farthest spreads its views evenly: 12 views from one scan. Farthest-point sampling leaves no two
+// views closer than the largest gap it leaves (each pick was as far from the earlier ones as any
+// candidate then was), and that gap is within twice the best possible covering of 13 directions,
+// whose angle is at least acos(1 - 2/13) = 32.2 degrees (13 caps must cover the sphere's area).
+TEST(Baselines, FarthestSpreadsItsViewsEvenly) {
+  ModelState st;
+  st.acquired_bounds.extend(Vec3(-0.2, -0.2, -0.2));
+  st.acquired_bounds.extend(Vec3(0.2, 0.2, 0.2));
+  const double d = st.scanner.optimal_distance();
+  st.scan_poses = {Pose::look_at(Vec3(d, 0, 0), Vec3::Zero())};
+  PlannerOptions o;
+  o.nbv.max_views = 12;
+  auto planner = make_planner("farthest", o);
+  Rng rng(1);
+  const auto out = planner->plan(st, st.scan_poses[0], rng);
+  ASSERT_EQ(out.views.size(), 12u);
+  std::vector<Vec3> dirs = {Vec3::UnitX()};
+  for (const auto& v : out.views) dirs.push_back(v.pose.position.normalized());
+  auto angle = [](const Vec3& a, const Vec3& b) { return std::acos(std::clamp(a.dot(b), -1.0, 1.0)); };
+  double closest = 10.0;
+  for (std::size_t i = 0; i < dirs.size(); ++i)
+    for (std::size_t j = i + 1; j < dirs.size(); ++j) closest = std::min(closest, angle(dirs[i], dirs[j]));
+  // The largest gap: over a dense Fibonacci sampling of the sphere (finer than the planner's 256).
+  double gap = 0.0;
+  const int n = 20000;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
+    const Vec3 u(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    double nearest = 10.0;
+    for (const Vec3& v : dirs) nearest = std::min(nearest, angle(u, v));
+    gap = std::max(gap, nearest);
+  }
+  const double bound = std::acos(1.0 - 2.0 / 13.0);
+  const double deg = 180.0 / std::numbers::pi;
+  EXPECT_GE(closest, gap - 8.0 / deg) << "closest pair " << closest * deg << " deg, largest gap " << gap * deg;
+  EXPECT_LE(gap, 2.0 * bound) << gap * deg << " deg";
+  EXPECT_GT(closest, bound) << closest * deg << " deg";  // a random set of 13 is far closer
 }
