@@ -10,6 +10,7 @@
 //     farther than 0.5 mm.
 // Usage: realscan_registration DIR OUT [--sigma-t M] [--sigma-r DEG] [--seed S] [--no-global] [--cap K]
 //        [--depth D] [--sensor-distance M] [--json FILE] [--hand-eye tx,ty,tz,rx,ry,rz] [--hand-eye-priors]
+//        [--min-significance F] (MultiwayOptions::min_significance: keep the reported poses below F)
 // --hand-eye: a hand-eye error H (metres, rotation vector in degrees, the scanner's frame) shared by
 // every scan on top of the random error: the robot reports C_i = P_i H⁻¹ for the true P_i. The
 // session's estimate is compared with what the estimator gives from the exact C_i and C_i H (the same
@@ -99,6 +100,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   bool global = true;
   int depth = 0;
+  double min_significance = -1.0;  // < 0: the session's default
   double prior_scale = 1.0, info_points = 0.0, robust = -1.0, trim = 0.0, incidence = 0.0, power = -1.0, disagree = 0.0,
          min_overlap = 0.0, boundary = -1.0;
   std::size_t samples = 0;
@@ -137,6 +139,8 @@ int main(int argc, char** argv) {
       incidence = std::stod(next());
     else if (k == "--gain")
       power = std::stod(next());
+    else if (k == "--min-significance")
+      min_significance = std::stod(next());
     else if (k == "--disagree")
       disagree = std::stod(next());
     else if (k == "--samples")
@@ -225,6 +229,7 @@ int main(int argc, char** argv) {
   if (rounds > 0) opt.multiway.rounds = rounds;
   if (incidence > 0) opt.multiway.max_incidence_deg = incidence;
   if (disagree > 0) opt.multiway.max_disagreement = disagree;
+  if (min_significance >= 0) opt.multiway.min_significance = min_significance;
   if (min_overlap > 0) opt.multiway.min_overlap = min_overlap;
   if (normal_k >= 0) opt.multiway.normal_k = normal_k;
   if (anchor_points >= 0) opt.multiway.surface.anchor_points = anchor_points;
@@ -382,11 +387,17 @@ int main(int argc, char** argv) {
     std::printf("%-26s %10.3f %10.3f %8s\n", scans[i].name.c_str(), 1e3 * scan_before[i], 1e3 * scan_after[i],
                 sess.scans()[i].excluded ? "yes" : "");
   const auto& g = sess.iterations().back().registration;
-  std::printf("global registration: %s\n",
-              g.is_object() ? fmt::format("{} pairs used, {} dropped, {:.2f} s", g.value("pairs_used", 0),
-                                          g.value("pairs_dropped", 0), g.value("seconds", 0.0))
-                                  .c_str()
-                            : "off");
+  std::printf(
+      "global registration: %s\n",
+      g.is_object()
+          ? fmt::format("{} pairs used, {} dropped, {:.2f} s; pairs' chi2 {:.1f} at the start, {:.1f} "
+                        "solved (priors {:.1f}), {} scans: F = {}{}",
+                        g.value("pairs_used", 0), g.value("pairs_dropped", 0), g.value("seconds", 0.0),
+                        g.value("pair_chi2_initial", 0.0), g.value("pair_chi2", 0.0), g.value("prior_chi2", 0.0),
+                        g.value("solved_scans", 0), g.value("significance", nlohmann::json(0.0)).dump(),
+                        g.value("kept_initial", false) ? ", kept the starting poses" : "")
+                .c_str()
+          : "off");
   std::printf("median per-scan error after: %.3f mm (max %.3f)\n", 1e3 * median(scan_after),
               1e3 * *std::max_element(scan_after.begin(), scan_after.end()));
   std::printf("mesh: median distance of the true points %.3f mm, %.1f %% beyond 0.5 mm (%zu vertices)\n",

@@ -279,6 +279,9 @@ TEST(Multiway, RejectsBadOptions) {
   o = {};
   o.min_overlap = 1.5;
   EXPECT_THROW(o.validate(), InputError);
+  o = {};
+  o.min_significance = -1.0;
+  EXPECT_THROW(o.validate(), InputError);
   std::vector<PointCloud> scans(2);
   std::vector<Vec3> sensors(1);
   EXPECT_THROW(register_multiway(scans, sensors, {}, {}, {}), InputError);
@@ -486,4 +489,33 @@ TEST(PoseGraph, APriorCentredOnACorrectionPullsTheNodeThere) {
   priors[0].center = Eigen::Isometry3d::Identity();  // the reported pose: back to the identity
   const auto r0 = solve_pose_graph(std::vector<Eigen::Isometry3d>{P}, fixed, {}, priors, {});
   EXPECT_LT((r0.poses[0].matrix() - Eigen::Matrix4d::Identity()).norm(), 1e-8);
+}
+
+// Good poses stay put (MultiwayOptions::min_significance, issue 45): with the true poses the
+// solution only fits the pairs' noise (F about 1) and the reported poses are kept; with a robot error
+// the F statistic is far beyond it and the solution is taken, as without the test.
+TEST(Multiway, TheTrueReportedPosesAreKeptAndAWrongOneIsCorrected) {
+  MultiwayOptions o;
+  o.robot_translation_sigma = 0.006;
+  o.robot_rotation_sigma_deg = 1.0;
+  o.min_significance = 4.0;  // the default
+  const Scene exact = make_scene(12, 0.0, 0.0, 3);
+  const auto kept = register_multiway(exact.scans, exact.sensors, {}, {}, o);
+  if (std::getenv("MW_DEBUG")) std::printf("%s\n", to_json(kept).dump(1).c_str());
+  EXPECT_EQ(kept.solved_scans, 12);
+  EXPECT_LT(kept.significance, o.min_significance);
+  EXPECT_GT(kept.pair_chi2_initial, kept.pair_chi2);  // the solution fits the pairs' noise a little better
+  EXPECT_TRUE(kept.kept_initial);
+  for (const auto& c : kept.corrections) EXPECT_TRUE(c.isApprox(Eigen::Isometry3d::Identity()));
+
+  const Scene wrong = make_scene(12, 0.006, 1.0, 3);
+  const auto taken = register_multiway(wrong.scans, wrong.sensors, {}, {}, o);
+  EXPECT_GT(taken.significance, 10.0 * o.min_significance);
+  EXPECT_FALSE(taken.kept_initial);
+  MultiwayOptions plain = o;
+  plain.min_significance = 0.0;
+  const auto always = register_multiway(wrong.scans, wrong.sensors, {}, {}, plain);
+  for (std::size_t k = 0; k < taken.corrections.size(); ++k)
+    EXPECT_EQ(taken.corrections[k].matrix(), always.corrections[k].matrix());
+  EXPECT_EQ(to_json(taken).at("kept_initial"), false);
 }

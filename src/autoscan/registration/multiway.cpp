@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -286,6 +287,8 @@ void MultiwayOptions::validate(const std::string& what) const {
                    "{}: max_pairs_per_scan must be in [0, 1000] (got {})", what, max_pairs_per_scan);
   AUTOSCAN_REQUIRE(std::isfinite(max_disagreement) && max_disagreement > 0.0,
                    "{}: max_disagreement must be finite and positive (got {})", what, max_disagreement);
+  AUTOSCAN_REQUIRE(std::isfinite(min_significance) && min_significance >= 0.0,
+                   "{}: min_significance must be finite and >= 0 (got {})", what, min_significance);
   AUTOSCAN_REQUIRE(std::isfinite(outlier_sigma) && outlier_sigma > 0.0,
                    "{}: outlier_sigma must be finite and positive (got {})", what, outlier_sigma);
   AUTOSCAN_REQUIRE(std::isfinite(robust_scale) && robust_scale >= 0.0,
@@ -561,6 +564,9 @@ class MultiwayRun {
   // Solves the graph over the active pairs, dropping disagreeing pairs and flagging scans until
   // nothing changes (at most four passes); returns the solved poses and the typical pair residual.
   std::vector<Eigen::Isometry3d> solve_with_rejection(std::vector<char>& active, double& typical_rms);
+  // The graph's cost at the starting corrections against the solution's (min_significance).
+  void record_misfit_at_start(std::span<const PoseGraphEdge> edges, std::span<const PoseGraphPrior> priors,
+                              const PoseGraphResult& g);
 
   std::span<const PointCloud> scans_;
   std::span<const Vec3> sensors_;
@@ -574,6 +580,7 @@ class MultiwayRun {
   std::vector<std::size_t> cand_;
   std::vector<Prepared> prep_;
   std::vector<Eigen::Isometry3d> X_;
+  std::vector<Eigen::Isometry3d> X0_;            ///< the starting corrections (centred frame)
   std::vector<Eigen::Isometry3d> prior_center_;  ///< centred frame; empty: identity
   std::set<PairKey> pair_set_;
   std::map<PairKey, double> overlap_of_;
@@ -611,6 +618,7 @@ void MultiwayRun::prepare(std::vector<std::shared_ptr<const PreparedScan>>* cach
   });
   for (const double t : fit_seconds) res_.seconds_fits += t;  // summed over the scans (threads overlap)
   for (std::size_t i = 0; i < n_; ++i) X_[i] = to_centred(res_.corrections[i], c_);
+  X0_ = X_;
 }
 
 // Tests the pairs (i in `from`, j a candidate) not tested yet; keeps those overlapping enough and
@@ -750,6 +758,7 @@ std::vector<Eigen::Isometry3d> MultiwayRun::solve_with_rejection(std::vector<cha
     res_.pair_chi2 = 0.0;
     for (const double c : g.edge_chi2) res_.pair_chi2 += c;
     res_.pair_chi2_pairs = edges.size();
+    record_misfit_at_start(edges, priors, g);
     // Drop the pairs that disagree with the solution, then the scans beyond the robot's accuracy.
     bool changed = false;
     // The typical residual of a pair: the median over the overlapping pairs.
@@ -787,6 +796,47 @@ std::vector<Eigen::Isometry3d> MultiwayRun::solve_with_rejection(std::vector<cha
     if (!changed) break;
   }
   return solved;
+}
+
+void MultiwayRun::record_misfit_at_start(std::span<const PoseGraphEdge> edges, std::span<const PoseGraphPrior> priors,
+                                         const PoseGraphResult& g) {
+  res_.pair_chi2_initial = 0.0;
+  for (const auto& e : edges) {
+    const auto err =
+        edge_error(X0_[static_cast<std::size_t>(e.from)], X0_[static_cast<std::size_t>(e.to)], e.measurement);
+    res_.pair_chi2_initial += err.dot(e.information * err);
+  }
+  res_.prior_chi2 = 0.0;
+  for (const double c : g.prior_chi2) res_.prior_chi2 += c;
+  res_.prior_chi2_initial = 0.0;
+  for (const auto& p : priors) {  // the prior's error at the start (pose_graph.hpp): Log(S⁻¹ center⁻¹ X₀ S)
+    const Eigen::Translation3d S(p.pivot);
+    const Eigen::Isometry3d E = S.inverse() * p.center.inverse() * X0_[static_cast<std::size_t>(p.node)] * S;
+    const Eigen::AngleAxisd aa(E.rotation());
+    res_.prior_chi2_initial += (aa.angle() / p.sigma_rotation_rad) * (aa.angle() / p.sigma_rotation_rad) +
+                               E.translation().squaredNorm() / (p.sigma_translation * p.sigma_translation);
+  }
+  res_.solved_scans = static_cast<int>(priors.size());
+  // Parameters the pairs determine: 6 per solved scan, less 6 for each group of scans that no fixed
+  // scan holds (the pairs see only relative poses; the priors alone fix such a group's place).
+  UnionFind groups(n_ + 1);
+  std::vector<char> solved(n_, 0);
+  for (const auto& p : priors) solved[static_cast<std::size_t>(p.node)] = 1;
+  auto node = [&](int i) { return solved[static_cast<std::size_t>(i)] ? static_cast<std::size_t>(i) : n_; };
+  for (const auto& e : edges) groups.unite(node(e.from), node(e.to));
+  std::set<std::size_t> loose;
+  for (const auto& p : priors)
+    if (groups.find(static_cast<std::size_t>(p.node)) != groups.find(n_))
+      loose.insert(groups.find(static_cast<std::size_t>(p.node)));
+  const double p = 6.0 * static_cast<double>(priors.size() - loose.size());
+  const double spare = 6.0 * static_cast<double>(edges.size()) - p;
+  const double gain = (res_.pair_chi2_initial + res_.prior_chi2_initial) - (res_.pair_chi2 + res_.prior_chi2);
+  if (priors.empty())
+    res_.significance = 0.0;
+  else if (p <= 0.0 || spare <= 0.0 || res_.pair_chi2 <= 0.0)  // no loop measures the pairs' noise
+    res_.significance = std::numeric_limits<double>::infinity();
+  else
+    res_.significance = (gain / p) / (res_.pair_chi2 / spare);
 }
 
 void MultiwayRun::round(int r) {
@@ -843,6 +893,11 @@ void MultiwayRun::add_bridges(std::vector<char>& active) {
 }
 
 void MultiwayRun::finish() {
+  // Good poses stay put: a solution that fits only the pairs' noise is not taken (min_significance).
+  if (o_.min_significance > 0.0 && res_.solved_scans > 0 && res_.significance < o_.min_significance) {
+    X_ = X0_;
+    res_.kept_initial = true;
+  }
   // A free scan that overlaps others but agrees with none of them is flagged too.
   std::vector<int> candidate_pairs(n_, 0);
   for (const auto& w : work_) {
@@ -968,6 +1023,12 @@ nlohmann::json to_json(const MultiwayResult& r) {
           {"seconds_select", r.seconds_select},
           {"pair_chi2", r.pair_chi2},
           {"pair_chi2_pairs", r.pair_chi2_pairs},
+          {"pair_chi2_initial", r.pair_chi2_initial},
+          {"prior_chi2", r.prior_chi2},
+          {"prior_chi2_initial", r.prior_chi2_initial},
+          {"solved_scans", r.solved_scans},
+          {"significance", std::isfinite(r.significance) ? nlohmann::json(r.significance) : nlohmann::json("inf")},
+          {"kept_initial", r.kept_initial},
           {"pairs", pairs},
           {"scans", scans}};
 }
