@@ -2,8 +2,13 @@
 #include "bridge.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "autoscan/core/atomic_file.hpp"
 #include "autoscan/core/error.hpp"
@@ -11,8 +16,10 @@
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/report/report.hpp"
 #include "autoscan/robot/adapter.hpp"
+#include "autoscan/session/reconstruct.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/simulate.hpp"
+#include "autoscan/spatial/kdtree.hpp"
 
 namespace autoscan_ros {
 
@@ -109,6 +116,7 @@ Points depth_to_points(const DepthImage& image, double min_depth, double max_dep
 
 struct Core::Impl {
   std::optional<autoscan::robot::Adapter> adapter;
+  std::shared_ptr<const autoscan::session::Reconstruction> last;  ///< of the last plan (its iso-points' f)
 };
 
 Core::Core(const std::string& dir, const std::string& config) : impl_(std::make_unique<Impl>()) {
@@ -141,6 +149,7 @@ int Core::integrate(const Points& sensor_points, const Rigid& world_from_sensor,
 Plan Core::next_views() {
   return guarded([&] {
     const auto step = impl_->adapter->next_views();
+    if (step.reconstruction) impl_->last = step.reconstruction;
     Plan p;
     for (const auto& v : step.views) p.views.push_back(to_rigid(v.pose.world_from_camera()));
     p.done = step.stopped;
@@ -161,6 +170,7 @@ void Core::refuse_view(const Rigid& world_from_sensor, const std::string& reason
 void Core::reset() {
   guarded([&] {
     impl_->adapter->reset();
+    impl_->last.reset();
     return 0;
   });
 }
@@ -187,7 +197,26 @@ nlohmann::json Core::status() const {
   return j;
 }
 
-Points Core::model_points() const { return to_points(impl_->adapter->session().model_points()); }
+Points Core::model_points() const {
+  const auto& raw = impl_->adapter->session().model_points();
+  Points p = to_points(raw);
+  const auto& rec = impl_->last;
+  if (!rec || rec->iso_points.empty() || !rec->iso_points.scalars.has("f")) return p;
+  const auto& f = rec->iso_points.scalars.get("f");
+  const autoscan::spatial::KdTree iso(rec->iso_points.positions);
+  std::vector<std::size_t> nearest(raw.size());
+  std::vector<double> d2(raw.size());
+  iso.nearest(raw.positions, nearest, d2);
+  p.confidence.reserve(raw.size());
+  for (const std::size_t k : nearest) p.confidence.push_back(static_cast<float>(std::clamp(f[k], 0.0, 1.0)));
+  return p;
+}
+
+Core::Frustum Core::frustum() const {
+  const auto& s = impl_->adapter->session().scanner();
+  constexpr double deg = std::numbers::pi / 180.0;
+  return {std::tan(0.5 * s.fov_deg * deg), std::tan(0.5 * s.vertical_fov_deg() * deg), s.optimal_distance()};
+}
 double Core::far() const { return impl_->adapter->session().scanner().far; }
 
 struct SimScanner::Impl {
@@ -202,6 +231,26 @@ struct SimScanner::Impl {
     Points local = to_points(r.cloud);
     apply(pose.world_from_camera().inverse(), local);
     return local;
+  }
+
+  // The scan's points in the sensor frame lie on their pixels' rays (the virtual scanner casts
+  // pixel (c, r) along ((c + 0.5 − W/2)/f, (r + 0.5 − H/2)/f, 1): CameraInfo's cx = W/2 − 0.5); a
+  // pixel's depth is its point's z.
+  DepthImage depth(const Pose& pose, int id) const {
+    const auto r = scanner->scan(pose, static_cast<std::uint64_t>(id), options.session.seed);
+    const auto& spec = options.scanner;
+    DepthImage d;
+    d.width = spec.width;
+    d.height = spec.height;
+    d.fx = d.fy = (spec.width / 2.0) / std::tan(0.5 * spec.fov_deg * std::numbers::pi / 180.0);
+    d.cx = spec.width / 2.0 - 0.5;
+    d.cy = spec.height / 2.0 - 0.5;
+    d.metres.assign(static_cast<std::size_t>(d.width) * static_cast<std::size_t>(d.height),
+                    std::numeric_limits<float>::quiet_NaN());
+    const Eigen::Isometry3d camera_from_world = pose.world_from_camera().inverse();
+    for (std::size_t k = 0; k < r.cloud.size(); ++k)
+      d.metres.at(r.pixels.at(k)) = static_cast<float>((camera_from_world * r.cloud.positions[k]).z());
+    return d;
   }
 };
 
@@ -258,6 +307,10 @@ std::string SimScanner::refusal(const Rigid& T) const {
 Points SimScanner::scan_blind(std::size_t i, int id) const { return impl_->scan(impl_->blind.at(i), id); }
 Points SimScanner::scan(const Rigid& T, int id) const {
   return guarded([&] { return impl_->scan(autoscan::robot::pose_from_isometry(to_eigen(T)), id); });
+}
+DepthImage SimScanner::depth_blind(std::size_t i, int id) const { return impl_->depth(impl_->blind.at(i), id); }
+DepthImage SimScanner::depth(const Rigid& T, int id) const {
+  return guarded([&] { return impl_->depth(autoscan::robot::pose_from_isometry(to_eigen(T)), id); });
 }
 int SimScanner::max_views() const { return impl_->options.session.max_views; }
 std::string SimScanner::source() const { return impl_->source; }

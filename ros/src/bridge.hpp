@@ -35,6 +35,8 @@ struct Points {
   std::vector<std::array<double, 3>> xyz;
   std::vector<std::array<double, 3>> normals;
   std::vector<std::array<std::uint8_t, 3>> rgb;
+  /// Per point confidence f in [0, 1] (Eq. 3 of the nearest iso-point; empty when unknown).
+  std::vector<float> confidence;
   std::size_t size() const { return xyz.size(); }
 };
 /// `T` applied to positions and normals.
@@ -83,9 +85,17 @@ class Core {
   /// Session::status() as JSON (scans, iterations, views_planned, model_points, done, stop_reason,
   /// best_iteration, refused_views, session_dir).
   nlohmann::json status() const;
+  /// The model's points, each with the confidence f of its nearest iso-point of the last plan (what
+  /// Eq. 6's selective insertion uses; `confidence` empty before the first plan of this process).
   Points model_points() const;
   /// The scanner's farthest working distance d_f (a depth image's valid depths reach 2 d_f).
   double far() const;
+  /// The scanner's view frustum for drawing: tan of half the horizontal and vertical field of view,
+  /// and its optimal working distance d_o.
+  struct Frustum {
+    double tan_half_x = 0.0, tan_half_y = 0.0, depth = 0.0;
+  };
+  Frustum frustum() const;
 
  private:
   struct Impl;
@@ -113,6 +123,10 @@ class SimScanner {
   /// id), points in the sensor's optical frame.
   Points scan_blind(std::size_t i, int scan_id) const;
   Points scan(const Rigid& world_from_sensor, int scan_id) const;
+  /// The same scans as depth images (32FC1 metres, NaN where no point; the scanner's pinhole camera:
+  /// each point on its pixel's ray, so depth_to_points gives the scan's points back).
+  DepthImage depth_blind(std::size_t i, int scan_id) const;
+  DepthImage depth(const Rigid& world_from_sensor, int scan_id) const;
   int max_views() const;
   std::string source() const;
 

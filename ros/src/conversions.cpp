@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 #include <sensor_msgs/PointField.h>
 #include <sensor_msgs/image_encodings.h>
+#include <std_msgs/ColorRGBA.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -146,6 +148,8 @@ sensor_msgs::PointCloud2 to_cloud_msg(const Points& cloud, const std::string& fr
   if (!cloud.normals.empty())
     for (const char* name : {"normal_x", "normal_y", "normal_z"}) add(name, type, size);
   if (!cloud.rgb.empty()) add("rgb", PointField::FLOAT32, 4);
+  const bool conf = cloud.confidence.size() == cloud.size() && cloud.size() > 0;
+  if (conf) add("confidence", PointField::FLOAT32, 4);
   msg.point_step = offset;
   msg.row_step = msg.point_step * msg.width;
   msg.data.resize(static_cast<std::size_t>(msg.row_step));
@@ -169,7 +173,9 @@ sensor_msgs::PointCloud2 to_cloud_msg(const Points& cloud, const std::string& fr
       const auto& c = cloud.rgb[i];
       const std::uint32_t packed = (std::uint32_t(c[0]) << 16) | (std::uint32_t(c[1]) << 8) | std::uint32_t(c[2]);
       std::memcpy(p + at, &packed, 4);
+      at += 4;
     }
+    if (conf) std::memcpy(p + at, &cloud.confidence[i], 4);
   }
   return msg;
 }
@@ -245,6 +251,90 @@ DepthImage from_depth_msg(const sensor_msgs::Image& image, const sensor_msgs::Ca
   for (std::uint32_t r = 0; r < image.height; ++r)
     std::memcpy(out.metres.data() + static_cast<std::size_t>(r) * image.width,
                 image.data.data() + std::size_t(r) * image.step, row_bytes);
+  return out;
+}
+
+namespace {
+
+std_msgs::ColorRGBA rgba(double r, double g, double b, double a = 1.0) {
+  std_msgs::ColorRGBA c;
+  c.r = static_cast<float>(r);
+  c.g = static_cast<float>(g);
+  c.b = static_cast<float>(b);
+  c.a = static_cast<float>(a);
+  return c;
+}
+
+geometry_msgs::Point point_msg(const std::array<double, 3>& p) {
+  geometry_msgs::Point m;
+  m.x = p[0];
+  m.y = p[1];
+  m.z = p[2];
+  return m;
+}
+
+visualization_msgs::Marker marker(const std::string& frame_id, const std::string& ns, int id, int type) {
+  visualization_msgs::Marker m;
+  m.header.frame_id = frame_id;
+  m.ns = ns;
+  m.id = id;
+  m.type = type;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  return m;
+}
+
+}  // namespace
+
+visualization_msgs::MarkerArray to_markers(const Points& model, const std::vector<Rigid>& views,
+                                           const Core::Frustum& frustum, const std::string& frame_id,
+                                           std::size_t max_points) {
+  using visualization_msgs::Marker;
+  visualization_msgs::MarkerArray out;
+  Marker clear;
+  clear.header.frame_id = frame_id;
+  clear.action = Marker::DELETEALL;
+  out.markers.push_back(clear);
+  const double d = frustum.depth;
+  if (model.size() > 0) {
+    Marker m = marker(frame_id, "model", 0, Marker::POINTS);
+    m.scale.x = m.scale.y = 0.004 * d;
+    const std::size_t stride =
+        std::max<std::size_t>(1, (model.size() + max_points - 1) / std::max<std::size_t>(1, max_points));
+    const bool conf = model.confidence.size() == model.size();
+    for (std::size_t i = 0; i < model.size(); i += stride) {
+      m.points.push_back(point_msg(model.xyz[i]));
+      const double f = conf ? std::clamp(static_cast<double>(model.confidence[i]), 0.0, 1.0) : -1.0;
+      m.colors.push_back(f < 0 ? rgba(0.6, 0.6, 0.6) : rgba(1.0 - f, f, 0.0));
+    }
+    out.markers.push_back(m);
+  }
+  Marker path = marker(frame_id, "path", 0, Marker::LINE_STRIP);
+  path.scale.x = 0.005 * d;
+  path.color = rgba(1.0, 1.0, 1.0, 0.8);
+  for (std::size_t k = 0; k < views.size(); ++k) {
+    // The frustum in the view's optical frame (z forward, x right, y down): the apex and the
+    // corners of the image at d_o.
+    Points f;
+    f.xyz = {{0.0, 0.0, 0.0},
+             {-frustum.tan_half_x * d, -frustum.tan_half_y * d, d},
+             {frustum.tan_half_x * d, -frustum.tan_half_y * d, d},
+             {frustum.tan_half_x * d, frustum.tan_half_y * d, d},
+             {-frustum.tan_half_x * d, frustum.tan_half_y * d, d}};
+    const Points w = transformed(f, views[k]);
+    Marker m = marker(frame_id, "views", static_cast<int>(k), Marker::LINE_LIST);
+    m.scale.x = 0.005 * d;
+    m.color = k == 0 ? rgba(1.0, 0.9, 0.0) : rgba(0.0, 0.8, 1.0);
+    for (int c = 1; c <= 4; ++c) {
+      m.points.push_back(point_msg(w.xyz[0]));  // apex to corner
+      m.points.push_back(point_msg(w.xyz[static_cast<std::size_t>(c)]));
+      m.points.push_back(point_msg(w.xyz[static_cast<std::size_t>(c)]));  // the image's edge
+      m.points.push_back(point_msg(w.xyz[static_cast<std::size_t>(c % 4 + 1)]));
+    }
+    out.markers.push_back(m);
+    path.points.push_back(point_msg(w.xyz[0]));
+  }
+  if (path.points.size() >= 2) out.markers.push_back(path);
   return out;
 }
 

@@ -11,8 +11,10 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <string>
+#include <vector>
 
 #include "bridge.hpp"
 
@@ -27,7 +29,8 @@ namespace autoscan_ros {
 Points from_cloud_msg(const sensor_msgs::PointCloud2& msg, const std::string& what = "cloud");
 
 /// A PointCloud2 of `cloud` (unorganised: height 1): x, y, z and the normals as FLOAT64 (a round trip
-/// is exact) or FLOAT32, rgb packed in a FLOAT32 when the cloud has colours.
+/// is exact) or FLOAT32, rgb packed in a FLOAT32 when the cloud has colours, and a FLOAT32
+/// `confidence` field when it has one per point.
 sensor_msgs::PointCloud2 to_cloud_msg(const Points& cloud, const std::string& frame_id, bool float64 = true);
 
 /// geometry_msgs <-> Rigid (the same numbers).
@@ -43,5 +46,14 @@ geometry_msgs::Pose to_pose_msg(const Rigid& r);
 /// big-endian image or a zero focal length.
 DepthImage from_depth_msg(const sensor_msgs::Image& image, const sensor_msgs::CameraInfo& info,
                           const std::string& what = "depth image");
+
+/// What RViz shows of a plan (docs/ros.md), in `frame_id`: a DELETEALL first (the previous plan's
+/// markers go), then ns "model" (the model's points as POINTS coloured by confidence, red at f = 0
+/// to green at f = 1, grey without; at most `max_points`, a stride sample), ns "views" (each view's
+/// frustum to the scanner's d_o as a LINE_LIST, the best one yellow, the others cyan; ids in path
+/// order) and ns "path" (a LINE_STRIP through the views in path order).
+visualization_msgs::MarkerArray to_markers(const Points& model, const std::vector<Rigid>& views,
+                                           const Core::Frustum& frustum, const std::string& frame_id,
+                                           std::size_t max_points = 200000);
 
 }  // namespace autoscan_ros

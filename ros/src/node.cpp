@@ -9,12 +9,16 @@
 //             refused_view (geometry_msgs/PoseStamped: a view the robot could not take).
 // Topics out (latched): next_views (geometry_msgs/PoseArray, best first, ordered into a path),
 //             next_best_view (geometry_msgs/PoseStamped), views_path (nav_msgs/Path),
-//             model (sensor_msgs/PointCloud2, after each plan), status (std_msgs/String, JSON).
+//             model (sensor_msgs/PointCloud2 with a confidence field, after each plan), markers
+//             (visualization_msgs/MarkerArray: the model by confidence, the views' frusta, the path),
+//             status (std_msgs/String, JSON).
 // Services (std_srvs/Trigger): compute_next_views, capture (adds the latest scan when auto_capture
 //             is false), save (writes the report), reset (starts over, same settings).
 // Parameters (private): session_dir (required), config (JSON: scanner, rig, session; or a session's
 //             session.json), world_frame ("world"), sensor_frame ("": the cloud's or image's frame),
-//             auto_capture (true), tf_timeout (s, 0.5: a cloud or image whose transform has not come
+//             output_frame ("": the views are the sensor's optical frame; a frame name, e.g. the
+//             arm's tool0: the views are that frame's poses, the static sensor-to-output transform
+//             from tf applied), auto_capture (true), tf_timeout (s, 0.5: a cloud or image whose transform has not come
 //             this long after it arrived is refused), float64_model (true), depth_min / depth_max
 //             (m, 0 / 0: depth pixels outside are invalid; depth_max 0 means twice the scanner's d_f).
 #include <fmt/format.h>
@@ -26,6 +30,7 @@
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <map>
 #include <memory>
@@ -46,6 +51,7 @@ class ScanNode {
     if (!pnh.getParam("session_dir", dir) || dir.empty()) throw InputError("autoscan_node: ~session_dir is not set");
     pnh.param<std::string>("world_frame", world_frame_, "world");
     pnh.param<std::string>("sensor_frame", sensor_frame_, "");
+    pnh.param<std::string>("output_frame", output_frame_, "");
     pnh.param("auto_capture", auto_capture_, true);
     pnh.param("tf_timeout", tf_timeout_, 0.5);
     pnh.param("float64_model", float64_model_, true);
@@ -63,6 +69,7 @@ class ScanNode {
     best_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("next_best_view", 1, true);
     path_pub_ = nh_.advertise<nav_msgs::Path>("views_path", 1, true);
     model_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("model", 1, true);
+    markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
 
     cloud_filter_.setTargetFrame(world_frame_);
     cloud_filter_.setTolerance(ros::Duration(0.0));
@@ -162,6 +169,7 @@ class ScanNode {
       const auto world_from_cloud = lookup(msg->header.frame_id, msg->header.stamp, what);
       if (!world_from_cloud) return;
       const std::string sensor = sensor_frame_.empty() ? msg->header.frame_id : sensor_frame_;
+      last_sensor_frame_ = sensor;
       Rigid world_from_sensor = *world_from_cloud;
       if (sensor != msg->header.frame_id) {  // the cloud in another frame than the sensor's
         const auto ws = lookup(sensor, msg->header.stamp, what);
@@ -183,8 +191,10 @@ class ScanNode {
       if (!camera_info_)
         throw InputError(fmt::format("{}: no camera_info received on {} yet", what, info_sub_.getTopic()));
       const auto image = from_depth_msg(*msg, *camera_info_, what);
-      const auto ws = lookup(sensor_frame_.empty() ? msg->header.frame_id : sensor_frame_, msg->header.stamp, what);
+      const std::string sensor = sensor_frame_.empty() ? msg->header.frame_id : sensor_frame_;
+      const auto ws = lookup(sensor, msg->header.stamp, what);
       if (!ws) return;
+      last_sensor_frame_ = sensor;
       Points pts = depth_to_points(image, depth_min_, depth_max_ > 0 ? depth_max_ : 2.0 * core_->far(), what);
       if (pts.size() == 0) throw InputError(what + ": no valid depth");
       take({std::move(pts), *ws, what});
@@ -221,7 +231,9 @@ class ScanNode {
       if (!msg->header.frame_id.empty() && msg->header.frame_id != world_frame_)
         throw InputError(
             fmt::format("refused_view: frame '{}' is not the world frame '{}'", msg->header.frame_id, world_frame_));
-      core_->refuse_view(to_rigid(msg->pose), "robot: could not take the view");
+      Rigid view = to_rigid(msg->pose);  // a pose of next_views: output_frame's when it is set
+      if (const auto sensor_from_output = output_transform()) view = compose(view, inverse(*sensor_from_output));
+      core_->refuse_view(view, "robot: could not take the view");
       publish_status("view_refused");
     } catch (const InputError& e) {
       refuse(e.what());
@@ -230,9 +242,13 @@ class ScanNode {
 
   bool on_compute(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
     try {
+      const std::optional<Rigid> sensor_from_output = output_transform();  // before planning: it may fail
       const Plan step = core_->next_views();
-      publish_views(step);
-      publish_model();
+      std::vector<Rigid> poses = step.views;
+      if (sensor_from_output)
+        for (auto& v : poses) v = compose(v, *sensor_from_output);
+      publish_views(poses);
+      publish_model(step.views);
       const json j = {{"views", step.views.size()},
                       {"iteration", step.iteration},
                       {"done", step.done},
@@ -281,14 +297,32 @@ class ScanNode {
     return true;
   }
 
-  void publish_views(const Plan& step) {
+  // sensor <- output_frame, the static transform from tf that turns a view (world <- sensor) into
+  // the pose the arm must reach (world <- output = world <- sensor ∘ sensor <- output); nullopt
+  // without output_frame. Throws InputError when tf does not know it.
+  std::optional<Rigid> output_transform() {
+    if (output_frame_.empty()) return std::nullopt;
+    const std::string sensor = sensor_frame_.empty() ? last_sensor_frame_ : sensor_frame_;
+    if (sensor.empty())
+      throw InputError(fmt::format(
+          "output_frame '{}': the sensor frame is not known yet (set ~sensor_frame or send a scan)", output_frame_));
+    try {
+      return to_rigid(tf_.lookupTransform(sensor, output_frame_, ros::Time(0), ros::Duration(tf_timeout_)).transform);
+    } catch (const tf2::TransformException& e) {
+      throw InputError(fmt::format("output_frame '{}': no transform from the sensor frame '{}': {}", output_frame_,
+                                   sensor, e.what()));
+    }
+  }
+
+  // next_views, next_best_view and views_path: the poses to reach, best first, in path order.
+  void publish_views(const std::vector<Rigid>& poses) {
     const ros::Time now = ros::Time::now();
     geometry_msgs::PoseArray arr;
     arr.header.frame_id = world_frame_;
     arr.header.stamp = now;
     nav_msgs::Path path;
     path.header = arr.header;
-    for (const auto& v : step.views) {
+    for (const auto& v : poses) {
       arr.poses.push_back(to_pose_msg(v));
       geometry_msgs::PoseStamped ps;
       ps.header = arr.header;
@@ -300,11 +334,21 @@ class ScanNode {
     if (!path.poses.empty()) best_pub_.publish(path.poses.front());
   }
 
-  void publish_model() {
-    if (model_pub_.getNumSubscribers() == 0) return;
-    auto msg = to_cloud_msg(core_->model_points(), world_frame_, float64_model_);
-    msg.header.stamp = ros::Time::now();
-    model_pub_.publish(msg);
+  // The model cloud (with its confidence) and the markers, both latched: a subscriber that comes
+  // later (RViz opened after the plan) gets them.
+  void publish_model(const std::vector<Rigid>& views) {
+    const Points model = core_->model_points();
+    const ros::Time now = ros::Time::now();
+    {
+      auto msg = to_cloud_msg(model, world_frame_, float64_model_);
+      msg.header.stamp = now;
+      model_pub_.publish(msg);
+    }
+    {
+      auto arr = to_markers(model, views, core_->frustum(), world_frame_);
+      for (auto& m : arr.markers) m.header.stamp = now;
+      markers_pub_.publish(arr);
+    }
   }
 
   void refuse(const std::string& why) {
@@ -331,12 +375,12 @@ class ScanNode {
   std::map<const sensor_msgs::PointCloud2*, Waiting> waiting_;
   ros::WallTimer expiry_timer_;
   ros::Subscriber cloud_sub_, depth_sub_, info_sub_, refused_sub_;
-  ros::Publisher status_pub_, views_pub_, best_pub_, path_pub_, model_pub_;
+  ros::Publisher status_pub_, views_pub_, best_pub_, path_pub_, model_pub_, markers_pub_;
   std::vector<ros::ServiceServer> services_;
   std::unique_ptr<Core> core_;
   std::optional<sensor_msgs::CameraInfo> camera_info_;
   std::optional<Scan> latest_;
-  std::string world_frame_, sensor_frame_, last_error_;
+  std::string world_frame_, sensor_frame_, output_frame_, last_sensor_frame_, last_error_;
   bool auto_capture_ = true, float64_model_ = true;
   double tf_timeout_ = 0.5, depth_min_ = 0.0, depth_max_ = 0.0;
   int refused_inputs_ = 0;

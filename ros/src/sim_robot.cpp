@@ -13,18 +13,24 @@
 // truth.ply), or mesh (a mesh file, or "demo": the built-in procedural object with the demo's
 // budgets) with config (a `simulate --config` JSON file) and seed (42); world_frame ("world"),
 // sensor_frame ("autoscan_sensor_optical"), timeout (s per step, 120), float32 (false: FLOAT64
-// points, a round trip without rounding), summary (a JSON file written at the end).
+// points, a round trip without rounding), depth_images (false: clouds on input/points; true: each
+// scan as a 32FC1 depth image on input/depth/image_rect, the scanner's camera on
+// input/depth/camera_info, latched), summary (a JSON file written at the end).
 #include <fmt/format.h>
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
@@ -51,8 +57,11 @@ class SimRobot {
     pnh.param<std::string>("sensor_frame", sensor_frame_, "autoscan_sensor_optical");
     pnh.param("timeout", timeout_, 120.0);
     pnh.param("float32", float32_, false);
+    pnh.param("depth_images", depth_images_, false);
     pnh.param<std::string>("summary", summary_, "");
     cloud_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("input/points", 5);
+    image_pub_ = nh_.advertise<sensor_msgs::Image>("input/depth/image_rect", 5);
+    info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("input/depth/camera_info", 1, true);
     tf_pub_ = nh_.advertise<tf2_msgs::TFMessage>("/tf", 50);
     refused_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("refused_view", 5);
     status_sub_ = nh_.subscribe("status", 20, &SimRobot::on_status, this);
@@ -62,8 +71,15 @@ class SimRobot {
 
   int run() {
     const ros::WallTime start = ros::WallTime::now();
-    wait_for("the node's status and subscriptions",
-             [&] { return have_status_ && cloud_pub_.getNumSubscribers() > 0 && tf_pub_.getNumSubscribers() > 0; });
+    wait_for("the node's status and subscriptions", [&] {
+      return have_status_ && tf_pub_.getNumSubscribers() > 0 &&
+             (depth_images_ ? image_pub_.getNumSubscribers() > 0 && info_pub_.getNumSubscribers() > 0
+                            : cloud_pub_.getNumSubscribers() > 0);
+    });
+    if (depth_images_) {  // the camera, once (latched): the node uses the latest camera_info it got
+      info_pub_.publish(camera_info(scanner_->depth_blind(0, 0)));
+      ros::WallDuration(0.5).sleep();
+    }
     if (!compute_.waitForExistence(ros::Duration(timeout_)))
       throw InputError("autoscan_sim_robot: the node offers no compute_next_views");
     int views = 0, skipped = 0;
@@ -77,7 +93,12 @@ class SimRobot {
           continue;
         }
         const int id = status().value("scans", 0);
-        publish_scan(scanner_->blind_pose(i), scanner_->scan_blind(i, id), id);
+        publish_scan(scanner_->blind_pose(i), id, [&](const ros::Time& stamp) {
+          if (depth_images_)
+            send_depth(scanner_->depth_blind(i, id), stamp);
+          else
+            send_cloud(scanner_->scan_blind(i, id), stamp);
+        });
       }
     const int max_views = scanner_->max_views();
     json last;
@@ -156,13 +177,51 @@ class SimRobot {
       return false;
     }
     const int id = status().value("scans", 0);
-    publish_scan(pose, scanner_->scan(pose, id), id);
+    publish_scan(pose, id, [&](const ros::Time& stamp) {
+      if (depth_images_)
+        send_depth(scanner_->depth(pose, id), stamp);
+      else
+        send_cloud(scanner_->scan(pose, id), stamp);
+    });
     return true;
   }
 
-  // Scan `id` (points in the sensor frame at `pose`): its tf, then the cloud at the same stamp; waits
-  // until the node counted it (or refused it: an error).
-  void publish_scan(const Rigid& pose, const Points& points, int id) {
+  sensor_msgs::CameraInfo camera_info(const DepthImage& d) const {
+    sensor_msgs::CameraInfo info;
+    info.header.frame_id = sensor_frame_;
+    info.width = static_cast<std::uint32_t>(d.width);
+    info.height = static_cast<std::uint32_t>(d.height);
+    info.distortion_model = "plumb_bob";
+    info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
+    info.K = {d.fx, 0.0, d.cx, 0.0, d.fy, d.cy, 0.0, 0.0, 1.0};
+    info.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+    info.P = {d.fx, 0.0, d.cx, 0.0, 0.0, d.fy, d.cy, 0.0, 0.0, 0.0, 1.0, 0.0};
+    return info;
+  }
+
+  void send_cloud(const Points& points, const ros::Time& stamp) {
+    auto msg = to_cloud_msg(points, sensor_frame_, !float32_);
+    msg.header.stamp = stamp;
+    cloud_pub_.publish(msg);
+  }
+
+  void send_depth(const DepthImage& d, const ros::Time& stamp) {
+    sensor_msgs::Image img;
+    img.header.frame_id = sensor_frame_;
+    img.header.stamp = stamp;
+    img.width = static_cast<std::uint32_t>(d.width);
+    img.height = static_cast<std::uint32_t>(d.height);
+    img.encoding = "32FC1";
+    img.is_bigendian = 0;
+    img.step = 4 * img.width;
+    img.data.resize(d.metres.size() * 4);
+    std::memcpy(img.data.data(), d.metres.data(), img.data.size());
+    image_pub_.publish(img);
+  }
+
+  // Scan `id` at `pose`: its tf, then `send` the scan (a cloud or a depth image) at the same stamp;
+  // waits until the node counted it (or refused it: an error).
+  void publish_scan(const Rigid& pose, int id, const std::function<void(const ros::Time&)>& send) {
     const int refused_before = status().value("refused_inputs", 0);
     const ros::Time stamp = ros::Time::now();
     tf2_msgs::TFMessage tf;
@@ -173,9 +232,7 @@ class SimRobot {
     t.transform = to_transform_msg(pose);
     tf.transforms.push_back(t);
     tf_pub_.publish(tf);
-    auto msg = to_cloud_msg(points, sensor_frame_, !float32_);
-    msg.header.stamp = stamp;
-    cloud_pub_.publish(msg);
+    send(stamp);
     wait_for(fmt::format("the node to add scan {}", id),
              [&] { return status_.value("scans", 0) > id || status_.value("refused_inputs", 0) > refused_before; });
     if (status().value("scans", 0) <= id)
@@ -201,12 +258,12 @@ class SimRobot {
 
   ros::NodeHandle nh_;
   std::unique_ptr<SimScanner> scanner_;
-  ros::Publisher cloud_pub_, tf_pub_, refused_pub_;
+  ros::Publisher cloud_pub_, image_pub_, info_pub_, tf_pub_, refused_pub_;
   ros::Subscriber status_sub_, views_sub_;
   ros::ServiceClient compute_;
   std::string world_frame_, sensor_frame_, summary_;
   double timeout_ = 120.0;
-  bool float32_ = false;
+  bool float32_ = false, depth_images_ = false;
   std::mutex mutex_;
   std::condition_variable cv_;
   json status_ = json::object();

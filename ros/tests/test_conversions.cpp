@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sensor_msgs/PointField.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -157,4 +158,89 @@ TEST(RosConversions, DepthImagesOfBothEncodingsMatchTheEquivalentCloud) {
   auto cut = f32;
   cut.data.resize(10);
   EXPECT_THROW(from_depth_msg(cut, info), InputError);
+}
+
+TEST(RosConversions, TheModelCloudCarriesAConfidenceField) {
+  Points c = sample_cloud();
+  for (std::size_t i = 0; i < c.size(); ++i) c.confidence.push_back(static_cast<float>(i) / 49.0f);
+  const auto msg = to_cloud_msg(c, "world", true);
+  const sensor_msgs::PointField* field = nullptr;
+  for (const auto& f : msg.fields)
+    if (f.name == "confidence") field = &f;
+  ASSERT_NE(field, nullptr);
+  EXPECT_EQ(field->datatype, sensor_msgs::PointField::FLOAT32);
+  EXPECT_EQ(msg.point_step, 6 * 8 + 4 + 4u);  // x, y, z, normals in FLOAT64, rgb, confidence
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    float f = 0.0f;
+    std::memcpy(&f, msg.data.data() + i * msg.point_step + field->offset, 4);
+    EXPECT_EQ(f, c.confidence[i]);
+  }
+  const Points back = from_cloud_msg(msg);  // the extra field does not disturb the reader
+  ASSERT_EQ(back.size(), c.size());
+  EXPECT_EQ(back.xyz[7], c.xyz[7]);
+  EXPECT_EQ(back.rgb[7], c.rgb[7]);
+  c.confidence.clear();
+  for (const auto& f : to_cloud_msg(c, "world").fields) EXPECT_NE(f.name, "confidence");
+}
+
+// The markers of a plan: DELETEALL, the model by confidence (red at 0, green at 1), each view's
+// frustum (apex at the view, the image's corners at d_o in the view's optical frame), the path.
+TEST(RosConversions, MarkersShowTheModelByConfidenceTheFrustaAndThePath) {
+  Points model;
+  model.xyz = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  model.confidence = {0.0f, 1.0f, 0.5f};
+  Rigid a;  // at (0, 0, -2) looking along +z (the identity orientation: optical z forward)
+  a.t = {0.0, 0.0, -2.0};
+  Rigid b;  // at (2, 0, 0), turned 90 degrees about y: looking along -x
+  b.t = {2.0, 0.0, 0.0};
+  b.q = {0.0, -std::sqrt(0.5), 0.0, std::sqrt(0.5)};
+  const Core::Frustum fr{0.25, 0.2, 1.0};
+  const auto arr = to_markers(model, {a, b}, fr, "world");
+  ASSERT_EQ(arr.markers.size(), 5u);  // delete-all, model, two frusta, path
+  EXPECT_EQ(arr.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  const auto& m = arr.markers[1];
+  EXPECT_EQ(m.ns, "model");
+  ASSERT_EQ(m.colors.size(), 3u);
+  EXPECT_FLOAT_EQ(m.colors[0].r, 1.0f);
+  EXPECT_FLOAT_EQ(m.colors[0].g, 0.0f);
+  EXPECT_FLOAT_EQ(m.colors[1].r, 0.0f);
+  EXPECT_FLOAT_EQ(m.colors[1].g, 1.0f);
+  const auto& fa = arr.markers[2];
+  EXPECT_EQ(fa.ns, "views");
+  EXPECT_EQ(fa.type, visualization_msgs::Marker::LINE_LIST);
+  ASSERT_EQ(fa.points.size(), 16u);
+  EXPECT_DOUBLE_EQ(fa.points[0].z, -2.0);     // the apex
+  EXPECT_NEAR(fa.points[1].x, -0.25, 1e-12);  // first corner: (-tan_x d, -tan_y d, d) from the view
+  EXPECT_NEAR(fa.points[1].y, -0.2, 1e-12);
+  EXPECT_NEAR(fa.points[1].z, -1.0, 1e-12);
+  const auto& fb = arr.markers[3];
+  EXPECT_NEAR(fb.points[1].x, 1.0, 1e-12);  // b looks along -x: its image lies at x = 2 - d
+  for (std::size_t k = 1; k < fb.points.size(); k += 2) EXPECT_LE(fb.points[k].x, 2.0 + 1e-12);
+  const auto& path = arr.markers[4];
+  EXPECT_EQ(path.type, visualization_msgs::Marker::LINE_STRIP);
+  ASSERT_EQ(path.points.size(), 2u);
+  EXPECT_DOUBLE_EQ(path.points[1].x, 2.0);
+}
+
+// The simulated robot's depth images (SimScanner::depth_blind): each scan point on its pixel's ray,
+// so the node's depth_to_points gives the scan back (to float32 rounding), less the pixels whose
+// neighbours cannot give a normal.
+TEST(RosSimScanner, DepthImagesGiveTheScansPointsBack) {
+  const SimScanner sc("", "demo", "", 1);
+  const Points pts = sc.scan_blind(0, 0);
+  const DepthImage d = sc.depth_blind(0, 0);
+  ASSERT_GT(pts.size(), 1000u);
+  std::size_t valid = 0;
+  for (const float z : d.metres) valid += std::isfinite(z) ? 1 : 0;
+  EXPECT_EQ(valid, pts.size());  // one pixel per point
+  const Points back = depth_to_points(d, 0.0, 1e9, "depth");
+  EXPECT_GT(back.size(), 9 * pts.size() / 10);
+  for (std::size_t k = 0; k < back.size(); k += back.size() / 200 + 1) {
+    double best = 1e9;
+    for (const auto& p : pts.xyz) {
+      const double dx = p[0] - back.xyz[k][0], dy = p[1] - back.xyz[k][1], dz = p[2] - back.xyz[k][2];
+      best = std::min(best, dx * dx + dy * dy + dz * dz);
+    }
+    EXPECT_LT(std::sqrt(best), 1e-5 * std::abs(back.xyz[k][2]) + 1e-9) << "point " << k;
+  }
 }

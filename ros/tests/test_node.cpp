@@ -1,14 +1,17 @@
 // autoscan_node against a real roscore (docs/ros.md, issue 46): what the node refuses, and that it
 // says so on `status` promptly, by name, adding nothing. Run by node_test.sh, which starts roscore on
 // a port of its own and the node (tf_timeout 0.5 s, world frame "world"), then this binary.
+#include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <ros/topic.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <chrono>
 #include <cmath>
@@ -81,6 +84,25 @@ ar::Points plane_points() {
   for (int i = -10; i <= 10; ++i)
     for (int j = -10; j <= 10; ++j) p.xyz.push_back({0.01 * i, 0.01 * j, 0.6});
   return p;
+}
+
+// The front of a ball of radius 0.15 at 1.2 m in front of the sensor: something to plan around.
+ar::Points ball_points() {
+  ar::Points p;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j) {
+      const double th = 0.05 + 1.4 * i / 59.0, ph = 2.0 * M_PI * j / 60.0;
+      const std::array<double, 3> n = {std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), -std::cos(th)};
+      p.xyz.push_back({0.15 * n[0], 0.15 * n[1], 1.2 + 0.15 * n[2]});
+      p.normals.push_back(n);
+    }
+  return p;
+}
+
+// The latest message on a latched topic, waiting up to `timeout_s`.
+template <class M>
+boost::shared_ptr<const M> latest(const std::string& topic, double timeout_s) {
+  return ros::topic::waitForMessage<M>(topic, ros::Duration(timeout_s));
 }
 
 class NodeTest : public ::testing::Test {
@@ -239,6 +261,61 @@ TEST_F(NodeTest, AGoodCloudIsAddedAndOneWhoseTransformCameTooLateIsNot) {
       before, [](const json& j) { return j.value("event", "") == "scan_added"; }, 2.0))
       << "the late cloud was added after its refusal: " << watch_->last().dump();
   EXPECT_EQ(watch_->last()["scans"], 1);
+}
+
+// A plan from one scan: next_views, the model with its confidence, the markers (the frusta's apexes
+// are the views). Then the node under "tool" (output_frame tool0, node_test.sh): its next_best_view is
+// the tool pose, the view composed with the static sensor-to-tool transform from tf.
+TEST_F(NodeTest, APlanPublishesViewsTheModelsConfidenceAndMarkersAndToolPosesWithOutputFrame) {
+  geometry_msgs::TransformStamped tool;  // tool0 10 cm behind the sensor, turned 90 degrees about its z
+  tool.header.stamp = ros::Time::now();
+  tool.header.frame_id = "cam";
+  tool.child_frame_id = "tool0";
+  tool.transform.translation.z = -0.1;
+  tool.transform.rotation.z = std::sqrt(0.5);
+  tool.transform.rotation.w = std::sqrt(0.5);
+  tf_->sendTransform(tool);
+  const ar::Rigid sensor_from_tool = ar::to_rigid(tool.transform);
+  for (const std::string ns : {"", "tool/"}) {
+    SCOPED_TRACE(ns.empty() ? "plain node" : "node with output_frame tool0");
+    auto pub = publisher<sensor_msgs::PointCloud2>(ns + "input/points");
+    pub.publish(cloud("cam", ball_points()));
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    ASSERT_TRUE(ros::service::waitForService(ns + "compute_next_views", 10000));
+    std_srvs::Trigger srv;
+    ASSERT_TRUE(ros::service::call(ns + "compute_next_views", srv));
+    ASSERT_TRUE(srv.response.success) << srv.response.message;
+    const auto views = latest<geometry_msgs::PoseArray>(ns + "next_views", 10.0);
+    const auto best = latest<geometry_msgs::PoseStamped>(ns + "next_best_view", 10.0);
+    const auto markers = latest<visualization_msgs::MarkerArray>(ns + "markers", 10.0);
+    const auto model = latest<sensor_msgs::PointCloud2>(ns + "model", 10.0);
+    ASSERT_TRUE(views && best && markers && model);
+    ASSERT_FALSE(views->poses.empty()) << srv.response.message;
+    EXPECT_EQ(views->header.frame_id, "world");
+    bool has_confidence = false;
+    for (const auto& f : model->fields) has_confidence |= f.name == "confidence";
+    EXPECT_TRUE(has_confidence);
+    const visualization_msgs::Marker* first = nullptr;
+    std::size_t frusta = 0;
+    for (const auto& m : markers->markers)
+      if (m.ns == "views") {
+        ++frusta;
+        if (m.id == 0) first = &m;
+      }
+    EXPECT_EQ(frusta, views->poses.size());
+    ASSERT_NE(first, nullptr);
+    // The sensor's place for the best view: the pose itself, or the tool pose less sensor <- tool.
+    ar::Rigid view = ar::to_rigid(best->pose);
+    if (!ns.empty()) view = ar::compose(view, ar::inverse(sensor_from_tool));
+    EXPECT_NEAR(view.t[0], first->points[0].x, 1e-6);
+    EXPECT_NEAR(view.t[1], first->points[0].y, 1e-6);
+    EXPECT_NEAR(view.t[2], first->points[0].z, 1e-6);
+    if (!ns.empty()) {  // and the tool pose is not the sensor's
+      const ar::Rigid raw = ar::to_rigid(best->pose);
+      EXPECT_GT(std::hypot(raw.t[0] - first->points[0].x, raw.t[1] - first->points[0].y, raw.t[2] - first->points[0].z),
+                0.09);
+    }
+  }
 }
 
 }  // namespace
