@@ -507,6 +507,15 @@ TEST(Multiway, TheTrueReportedPosesAreKeptAndAWrongOneIsCorrected) {
   EXPECT_GT(kept.pair_chi2_initial, kept.pair_chi2);  // the solution fits the pairs' noise a little better
   EXPECT_TRUE(kept.kept_initial);
   for (const auto& c : kept.corrections) EXPECT_TRUE(c.isApprox(Eigen::Isometry3d::Identity()));
+  EXPECT_TRUE(kept.significance_applies);
+
+  // Scans that start from an earlier registration's correction are not at the robot's word: the
+  // solution is taken whatever F says.
+  std::vector<Eigen::Isometry3d> moved(exact.scans.size(), Eigen::Isometry3d::Identity());
+  moved[3] = rigid(0.01, Vec3::UnitZ(), Vec3(1e-5, 0, 0));
+  const auto from_moved = register_multiway(exact.scans, exact.sensors, moved, {}, o);
+  EXPECT_FALSE(from_moved.significance_applies);
+  EXPECT_FALSE(from_moved.kept_initial);
 
   const Scene wrong = make_scene(12, 0.006, 1.0, 3);
   const auto taken = register_multiway(wrong.scans, wrong.sensors, {}, {}, o);

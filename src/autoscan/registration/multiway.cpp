@@ -894,7 +894,14 @@ void MultiwayRun::add_bridges(std::vector<char>& active) {
 
 void MultiwayRun::finish() {
   // Good poses stay put: a solution that fits only the pairs' noise is not taken (min_significance).
-  if (o_.min_significance > 0.0 && res_.solved_scans > 0 && res_.significance < o_.min_significance) {
+  // It applies to scans still at the robot's word: a scan an earlier registration moved (a session's
+  // ICP to the model at add_scan) starts from another estimate, not from the reported pose.
+  bool reported = true;
+  for (std::size_t i = 0; i < n_; ++i)
+    if (free_[i] && !X0_[i].isApprox(prior_center_.empty() ? Eigen::Isometry3d::Identity() : prior_center_[i], 1e-12))
+      reported = false;
+  res_.significance_applies = reported;
+  if (reported && o_.min_significance > 0.0 && res_.solved_scans > 0 && res_.significance < o_.min_significance) {
     X_ = X0_;
     res_.kept_initial = true;
   }
@@ -1029,6 +1036,7 @@ nlohmann::json to_json(const MultiwayResult& r) {
           {"solved_scans", r.solved_scans},
           {"significance", std::isfinite(r.significance) ? nlohmann::json(r.significance) : nlohmann::json("inf")},
           {"kept_initial", r.kept_initial},
+          {"significance_applies", r.significance_applies},
           {"pairs", pairs},
           {"scans", scans}};
 }
