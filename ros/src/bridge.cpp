@@ -16,6 +16,7 @@
 #include "autoscan/io/mesh_io.hpp"
 #include "autoscan/report/report.hpp"
 #include "autoscan/robot/adapter.hpp"
+#include "autoscan/session/certificate.hpp"
 #include "autoscan/session/reconstruct.hpp"
 #include "autoscan/shapes/procedural.hpp"
 #include "autoscan/simulation/simulate.hpp"
@@ -210,6 +211,16 @@ Points Core::model_points() const {
   p.confidence.reserve(raw.size());
   for (const std::size_t k : nearest) p.confidence.push_back(static_cast<float>(std::clamp(f[k], 0.0, 1.0)));
   return p;
+}
+
+std::vector<Region> Core::regions() const {
+  const auto s = impl_->adapter->session().status();
+  std::vector<Region> out;
+  if (!s.certificate.is_object()) return out;
+  const auto c = autoscan::session::certificate_from_json(s.certificate, "certificate");
+  for (const auto& r : c.regions)
+    out.push_back({{r.centroid.x(), r.centroid.y(), r.centroid.z()}, r.radius, r.share, r.reason});
+  return out;
 }
 
 Core::Frustum Core::frustum() const {

@@ -54,6 +54,14 @@ struct DepthImage {
 /// the neighbouring pixels), within [min_depth, max_depth]. Throws InputError naming `what`.
 Points depth_to_points(const DepthImage& image, double min_depth, double max_depth, const std::string& what);
 
+/// A region of the quality certificate (session/certificate.hpp): low-confidence surface and why.
+struct Region {
+  std::array<double, 3> centroid{0.0, 0.0, 0.0};
+  double radius = 0.0;  ///< its vertices' largest distance from the centroid
+  double share = 0.0;   ///< of the model's surface area
+  std::string reason;   ///< not_scanned, improving, unreachable, too_noisy
+};
+
 /// The answer to compute_next_views.
 struct Plan {
   std::vector<Rigid> views;  ///< world from the optical frame, best first, ordered into a path
@@ -96,6 +104,8 @@ class Core {
     double tan_half_x = 0.0, tan_half_y = 0.0, depth = 0.0;
   };
   Frustum frustum() const;
+  /// The regions of the last iteration's quality certificate, largest first (none before a plan).
+  std::vector<Region> regions() const;
 
  private:
   struct Impl;

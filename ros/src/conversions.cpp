@@ -288,7 +288,7 @@ visualization_msgs::Marker marker(const std::string& frame_id, const std::string
 
 visualization_msgs::MarkerArray to_markers(const Points& model, const std::vector<Rigid>& views,
                                            const Core::Frustum& frustum, const std::string& frame_id,
-                                           std::size_t max_points) {
+                                           const std::vector<Region>& regions, std::size_t max_points) {
   using visualization_msgs::Marker;
   visualization_msgs::MarkerArray out;
   Marker clear;
@@ -335,6 +335,24 @@ visualization_msgs::MarkerArray to_markers(const Points& model, const std::vecto
     path.points.push_back(point_msg(w.xyz[0]));
   }
   if (path.points.size() >= 2) out.markers.push_back(path);
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    const Region& r = regions[k];
+    Marker m = marker(frame_id, "regions", static_cast<int>(k), Marker::SPHERE);
+    m.pose.position = point_msg(r.centroid);
+    m.scale.x = m.scale.y = m.scale.z = std::max(2.0 * r.radius, 0.01 * d);
+    m.color = r.reason == "not_scanned"   ? rgba(1.0, 0.0, 0.0, 0.35)
+              : r.reason == "improving"   ? rgba(1.0, 0.55, 0.0, 0.35)
+              : r.reason == "unreachable" ? rgba(0.5, 0.5, 0.5, 0.35)
+                                          : rgba(0.6, 0.0, 0.8, 0.35);
+    out.markers.push_back(m);
+    Marker t = marker(frame_id, "region_labels", static_cast<int>(k), Marker::TEXT_VIEW_FACING);
+    t.pose.position = point_msg(r.centroid);
+    t.pose.position.z += std::max(r.radius, 0.01 * d);
+    t.scale.z = 0.03 * d;
+    t.color = rgba(1.0, 1.0, 1.0);
+    t.text = fmt::format("{} {:.1f} %", r.reason, 100.0 * r.share);
+    out.markers.push_back(t);
+  }
   return out;
 }
 

@@ -51,9 +51,12 @@ DepthImage from_depth_msg(const sensor_msgs::Image& image, const sensor_msgs::Ca
 /// markers go), then ns "model" (the model's points as POINTS coloured by confidence, red at f = 0
 /// to green at f = 1, grey without; at most `max_points`, a stride sample), ns "views" (each view's
 /// frustum to the scanner's d_o as a LINE_LIST, the best one yellow, the others cyan; ids in path
-/// order) and ns "path" (a LINE_STRIP through the views in path order).
+/// order), ns "path" (a LINE_STRIP through the views in path order) and, per region of the quality
+/// certificate, ns "regions" (a translucent SPHERE of its radius at its centroid: not_scanned red,
+/// improving orange, unreachable grey, too_noisy purple) and ns "region_labels" (its reason and share
+/// as TEXT_VIEW_FACING), with the same id.
 visualization_msgs::MarkerArray to_markers(const Points& model, const std::vector<Rigid>& views,
                                            const Core::Frustum& frustum, const std::string& frame_id,
-                                           std::size_t max_points = 200000);
+                                           const std::vector<Region>& regions = {}, std::size_t max_points = 200000);
 
 }  // namespace autoscan_ros

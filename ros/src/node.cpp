@@ -345,7 +345,7 @@ class ScanNode {
       model_pub_.publish(msg);
     }
     {
-      auto arr = to_markers(model, views, core_->frustum(), world_frame_);
+      auto arr = to_markers(model, views, core_->frustum(), world_frame_, core_->regions());
       for (auto& m : arr.markers) m.header.stamp = now;
       markers_pub_.publish(arr);
     }

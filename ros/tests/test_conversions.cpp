@@ -195,8 +195,21 @@ TEST(RosConversions, MarkersShowTheModelByConfidenceTheFrustaAndThePath) {
   b.t = {2.0, 0.0, 0.0};
   b.q = {0.0, -std::sqrt(0.5), 0.0, std::sqrt(0.5)};
   const Core::Frustum fr{0.25, 0.2, 1.0};
-  const auto arr = to_markers(model, {a, b}, fr, "world");
-  ASSERT_EQ(arr.markers.size(), 5u);  // delete-all, model, two frusta, path
+  Region reg;
+  reg.centroid = {0.1, 0.2, 0.3};
+  reg.radius = 0.05;
+  reg.share = 0.012;
+  reg.reason = "not_scanned";
+  const auto arr = to_markers(model, {a, b}, fr, "world", {reg});
+  ASSERT_EQ(arr.markers.size(), 7u);  // delete-all, model, two frusta, path, the region and its label
+  const auto& sphere = arr.markers[5];
+  EXPECT_EQ(sphere.ns, "regions");
+  EXPECT_EQ(sphere.type, visualization_msgs::Marker::SPHERE);
+  EXPECT_DOUBLE_EQ(sphere.pose.position.y, 0.2);
+  EXPECT_DOUBLE_EQ(sphere.scale.x, 0.1);
+  EXPECT_FLOAT_EQ(sphere.color.r, 1.0f);
+  EXPECT_FLOAT_EQ(sphere.color.g, 0.0f);
+  EXPECT_EQ(arr.markers[6].text, "not_scanned 1.2 %");
   EXPECT_EQ(arr.markers[0].action, visualization_msgs::Marker::DELETEALL);
   const auto& m = arr.markers[1];
   EXPECT_EQ(m.ns, "model");
