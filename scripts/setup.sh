@@ -40,6 +40,7 @@ PACKAGES=(
   # The ROS 1 node (ros/, docs/ros.md; -DAUTOSCAN_ROS, on when these are found) and roscore for its test.
   ros-core libroscpp-dev librosconsole-dev libmessage-filters-dev libtf2-dev libtf2-ros-dev libtf2-msgs-dev
   libstd-msgs-dev libstd-srvs-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev libvisualization-msgs-dev
+  python3-rospy python3-rosbag python3-std-srvs
 )
 # The report's front end is bundled with npm and tested in headless Chromium (Playwright).
 command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)

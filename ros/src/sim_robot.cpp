@@ -220,24 +220,32 @@ class SimRobot {
   }
 
   // Scan `id` at `pose`: its tf, then `send` the scan (a cloud or a depth image) at the same stamp;
-  // waits until the node counted it (or refused it: an error).
+  // waits until the node counted it. A scan refused for want of its transform is sent again (at most
+  // twice, with a new stamp): the node's tf listener may not be connected yet when the robot's first
+  // scan goes out (another /tf subscriber, a rosbag recorder, satisfies the robot's wait). Any other
+  // refusal is an error.
   void publish_scan(const Rigid& pose, int id, const std::function<void(const ros::Time&)>& send) {
-    const int refused_before = status().value("refused_inputs", 0);
-    const ros::Time stamp = ros::Time::now();
-    tf2_msgs::TFMessage tf;
-    geometry_msgs::TransformStamped t;
-    t.header.frame_id = world_frame_;
-    t.header.stamp = stamp;
-    t.child_frame_id = sensor_frame_;
-    t.transform = to_transform_msg(pose);
-    tf.transforms.push_back(t);
-    tf_pub_.publish(tf);
-    send(stamp);
-    wait_for(fmt::format("the node to add scan {}", id),
-             [&] { return status_.value("scans", 0) > id || status_.value("refused_inputs", 0) > refused_before; });
-    if (status().value("scans", 0) <= id)
-      throw InputError(
-          fmt::format("autoscan_sim_robot: the node refused scan {}: {}", id, status().value("error", std::string())));
+    for (int attempt = 0;; ++attempt) {
+      const int refused_before = status().value("refused_inputs", 0);
+      const ros::Time stamp = ros::Time::now();
+      tf2_msgs::TFMessage tf;
+      geometry_msgs::TransformStamped t;
+      t.header.frame_id = world_frame_;
+      t.header.stamp = stamp;
+      t.child_frame_id = sensor_frame_;
+      t.transform = to_transform_msg(pose);
+      tf.transforms.push_back(t);
+      tf_pub_.publish(tf);
+      send(stamp);
+      wait_for(fmt::format("the node to add scan {}", id),
+               [&] { return status_.value("scans", 0) > id || status_.value("refused_inputs", 0) > refused_before; });
+      if (status().value("scans", 0) > id) return;
+      const std::string error = status().value("error", std::string());
+      if (attempt >= 2 || error.find("no transform") == std::string::npos)
+        throw InputError(fmt::format("autoscan_sim_robot: the node refused scan {}: {}", id, error));
+      ROS_WARN("autoscan_sim_robot: scan %d sent again: %s", id, error.c_str());
+      ros::WallDuration(0.5).sleep();
+    }
   }
 
   void on_status(const std_msgs::StringConstPtr& m) {
