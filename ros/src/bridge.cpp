@@ -247,8 +247,7 @@ struct SimScanner::Impl {
   // The scan's points in the sensor frame lie on their pixels' rays (the virtual scanner casts
   // pixel (c, r) along ((c + 0.5 − W/2)/f, (r + 0.5 − H/2)/f, 1): CameraInfo's cx = W/2 − 0.5); a
   // pixel's depth is its point's z.
-  DepthImage depth(const Pose& pose, int id) const {
-    const auto r = scanner->scan(pose, static_cast<std::uint64_t>(id), options.session.seed);
+  DepthImage camera() const {
     const auto& spec = options.scanner;
     DepthImage d;
     d.width = spec.width;
@@ -256,6 +255,12 @@ struct SimScanner::Impl {
     d.fx = d.fy = (spec.width / 2.0) / std::tan(0.5 * spec.fov_deg * std::numbers::pi / 180.0);
     d.cx = spec.width / 2.0 - 0.5;
     d.cy = spec.height / 2.0 - 0.5;
+    return d;
+  }
+
+  DepthImage depth(const Pose& pose, int id) const {
+    const auto r = scanner->scan(pose, static_cast<std::uint64_t>(id), options.session.seed);
+    DepthImage d = camera();
     d.metres.assign(static_cast<std::size_t>(d.width) * static_cast<std::size_t>(d.height),
                     std::numeric_limits<float>::quiet_NaN());
     const Eigen::Isometry3d camera_from_world = pose.world_from_camera().inverse();
@@ -319,6 +324,7 @@ Points SimScanner::scan_blind(std::size_t i, int id) const { return impl_->scan(
 Points SimScanner::scan(const Rigid& T, int id) const {
   return guarded([&] { return impl_->scan(autoscan::robot::pose_from_isometry(to_eigen(T)), id); });
 }
+DepthImage SimScanner::camera() const { return impl_->camera(); }
 DepthImage SimScanner::depth_blind(std::size_t i, int id) const { return impl_->depth(impl_->blind.at(i), id); }
 DepthImage SimScanner::depth(const Rigid& T, int id) const {
   return guarded([&] { return impl_->depth(autoscan::robot::pose_from_isometry(to_eigen(T)), id); });

@@ -136,6 +136,8 @@ class SimScanner {
   /// The same scans as depth images (32FC1 metres, NaN where no point; the scanner's pinhole camera:
   /// each point on its pixel's ray, so depth_to_points gives the scan's points back).
   DepthImage depth_blind(std::size_t i, int scan_id) const;
+  /// That camera alone (no depth data): what camera_info carries.
+  DepthImage camera() const;
   DepthImage depth(const Rigid& world_from_sensor, int scan_id) const;
   int max_views() const;
   std::string source() const;

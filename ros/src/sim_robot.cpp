@@ -77,7 +77,7 @@ class SimRobot {
                             : cloud_pub_.getNumSubscribers() > 0);
     });
     if (depth_images_) {  // the camera, once (latched): the node uses the latest camera_info it got
-      info_pub_.publish(camera_info(scanner_->depth_blind(0, 0)));
+      info_pub_.publish(camera_info(scanner_->camera()));
       ros::WallDuration(0.5).sleep();
     }
     if (!compute_.waitForExistence(ros::Duration(timeout_)))

@@ -9,32 +9,15 @@
 set -euo pipefail
 CLI=$1 NODE=$2 ROBOT=$3 WORK=$4 MAX_VIEWS=${5:-6}
 HERE=$(cd "$(dirname "$0")" && pwd)
-rm -rf "$WORK"
-mkdir -p "$WORK"
-WORK=$(cd "$WORK" && pwd)
-
-PIDS=()
-cleanup() {
-  for p in "${PIDS[@]}"; do kill -INT "$p" 2>/dev/null || true; done
-  sleep 1
-  for p in "${PIDS[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
+# shellcheck source=roscore_lib.sh
+source "$HERE/roscore_lib.sh"
+fresh_work_dir "$WORK"
 
 echo '{"session": {"stop": {"truth_fscore_tolerance": 0}}}' > "$WORK/config.json"
 "$CLI" demo --out "$WORK/ref" --max-views "$MAX_VIEWS" --depth 7 --seed 1 --no-report \
   --config "$WORK/config.json" > "$WORK/ref.log" 2>&1
 
-PORT=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI="http://127.0.0.1:$PORT" ROS_IP=127.0.0.1 ROS_HOME="$WORK/ros_home" ROS_LOG_DIR="$WORK/ros_log"
-roscore -p "$PORT" > "$WORK/roscore.log" 2>&1 &
-PIDS+=($!)
-for _ in $(seq 1 100); do
-  if python3 -c "import xmlrpc.client; xmlrpc.client.ServerProxy('$ROS_MASTER_URI').getSystemState('/t')" \
-       2>/dev/null; then break; fi
-  sleep 0.3
-done
+start_roscore
 
 # The recorded run.
 "$NODE" __name:=autoscan_node _session_dir:="$WORK/session_a" _config:="$WORK/ref/session.json" \

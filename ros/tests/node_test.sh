@@ -6,28 +6,11 @@
 #   node_test.sh AUTOSCAN_NODE TEST_ROS_NODE WORK_DIR
 set -euo pipefail
 NODE=$1 CLIENT=$2 WORK=$3
-rm -rf "$WORK"
-mkdir -p "$WORK"
-WORK=$(cd "$WORK" && pwd)
+# shellcheck source=roscore_lib.sh
+source "$(dirname "$0")/roscore_lib.sh"
+fresh_work_dir "$WORK"
 
-PIDS=()
-cleanup() {
-  for p in "${PIDS[@]}"; do kill -INT "$p" 2>/dev/null || true; done
-  sleep 1
-  for p in "${PIDS[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
-
-PORT=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI="http://127.0.0.1:$PORT" ROS_IP=127.0.0.1 ROS_HOME="$WORK/ros_home" ROS_LOG_DIR="$WORK/ros_log"
-roscore -p "$PORT" > "$WORK/roscore.log" 2>&1 &
-PIDS+=($!)
-for _ in $(seq 1 100); do
-  if python3 -c "import xmlrpc.client, sys; xmlrpc.client.ServerProxy('$ROS_MASTER_URI').getSystemState('/t')" \
-       2>/dev/null; then break; fi
-  sleep 0.3
-done
+start_roscore
 echo "node_test: roscore on port $PORT"
 
 "$NODE" __name:=autoscan_node _session_dir:="$WORK/session" _world_frame:=world _tf_timeout:=0.5 \

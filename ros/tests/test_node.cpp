@@ -86,6 +86,18 @@ ar::Points plane_points() {
   return p;
 }
 
+// A 4 x 4 image in frame "cam" of `encoding`, `bytes` per pixel, every byte `fill`.
+sensor_msgs::Image small_image(const std::string& encoding, std::uint32_t bytes, std::uint8_t fill) {
+  sensor_msgs::Image img;
+  img.header.stamp = ros::Time::now();
+  img.header.frame_id = "cam";
+  img.width = img.height = 4;
+  img.encoding = encoding;
+  img.step = 4 * bytes;
+  img.data.assign(16 * bytes, fill);
+  return img;
+}
+
 // The front of a ball of radius 0.15 at 1.2 m in front of the sensor: something to plan around.
 ar::Points ball_points() {
   ar::Points p;
@@ -183,14 +195,7 @@ TEST_F(NodeTest, ACloudWithoutAFinitePointIsRefused) {
 TEST_F(NodeTest, ADepthImageBeforeAnyCameraInfoIsRefused) {
   auto pub = publisher<sensor_msgs::Image>("input/depth/image_rect");
   const int before = watch_->count();
-  sensor_msgs::Image img;
-  img.header.stamp = ros::Time::now();
-  img.header.frame_id = "cam";
-  img.width = img.height = 4;
-  img.encoding = "32FC1";
-  img.step = 16;
-  img.data.assign(64, 0);
-  pub.publish(img);
+  pub.publish(small_image("32FC1", 4, 0));
   ASSERT_TRUE(watch_->wait(before, refused_naming("camera_info"), 10.0)) << watch_->last().dump();
 }
 
@@ -204,14 +209,7 @@ TEST_F(NodeTest, AColourImageIsNotADepthImage) {
   info_pub.publish(info);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const int before = watch_->count();
-  sensor_msgs::Image img;
-  img.header.stamp = ros::Time::now();
-  img.header.frame_id = "cam";
-  img.width = img.height = 4;
-  img.encoding = "rgb8";
-  img.step = 12;
-  img.data.assign(48, 100);
-  pub.publish(img);
+  pub.publish(small_image("rgb8", 3, 100));
   ASSERT_TRUE(watch_->wait(before, refused_naming("rgb8"), 10.0)) << watch_->last().dump();
 }
 

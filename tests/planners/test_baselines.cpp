@@ -454,17 +454,24 @@ TEST(Frontier, ViewsAimAtTheEdgeOfWhatWasMeasured) {
 }
 
 // farthest: the first view opposite the one scan, the next one as far from both.
-TEST(Baselines, FarthestLooksFromTheOtherSide) {
+namespace {
+// A box of 0.4 scanned once from +x at d_o; the farthest planner's next `views`.
+PlanOutput farthest_after_one_scan(int views) {
   ModelState st;
   st.acquired_bounds.extend(Vec3(-0.2, -0.2, -0.2));
   st.acquired_bounds.extend(Vec3(0.2, 0.2, 0.2));
-  const double d = st.scanner.optimal_distance();
-  st.scan_poses = {Pose::look_at(Vec3(d, 0, 0), Vec3::Zero())};
+  st.scan_poses = {Pose::look_at(Vec3(st.scanner.optimal_distance(), 0, 0), Vec3::Zero())};
   PlannerOptions o;
-  o.nbv.max_views = 2;
+  o.nbv.max_views = views;
   auto planner = make_planner("farthest", o);
   Rng rng(1);
-  const auto out = planner->plan(st, st.scan_poses[0], rng);
+  return planner->plan(st, st.scan_poses[0], rng);
+}
+}  // namespace
+
+TEST(Baselines, FarthestLooksFromTheOtherSide) {
+  const double d = ScannerSpec{}.optimal_distance();
+  const auto out = farthest_after_one_scan(2);
   ASSERT_EQ(out.views.size(), 2u);
   // The path order may swap them: find the one opposite the scan.
   std::vector<double> dots;
@@ -480,16 +487,7 @@ TEST(Baselines, FarthestLooksFromTheOtherSide) {
 // candidate then was), and that gap is within twice the best possible covering of 13 directions,
 // whose angle is at least acos(1 - 2/13) = 32.2 degrees (13 caps must cover the sphere's area).
 TEST(Baselines, FarthestSpreadsItsViewsEvenly) {
-  ModelState st;
-  st.acquired_bounds.extend(Vec3(-0.2, -0.2, -0.2));
-  st.acquired_bounds.extend(Vec3(0.2, 0.2, 0.2));
-  const double d = st.scanner.optimal_distance();
-  st.scan_poses = {Pose::look_at(Vec3(d, 0, 0), Vec3::Zero())};
-  PlannerOptions o;
-  o.nbv.max_views = 12;
-  auto planner = make_planner("farthest", o);
-  Rng rng(1);
-  const auto out = planner->plan(st, st.scan_poses[0], rng);
+  const auto out = farthest_after_one_scan(12);
   ASSERT_EQ(out.views.size(), 12u);
   std::vector<Vec3> dirs = {Vec3::UnitX()};
   for (const auto& v : out.views) dirs.push_back(v.pose.position.normalized());
